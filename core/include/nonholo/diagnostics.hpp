@@ -1,0 +1,30 @@
+#pragma once
+// What to watch along a trajectory (DESIGN.md section 2): the energy of the average
+// momentum p~ (not exactly preserved unless D is translation invariant), the energy of the
+// post-momentum (preserved to round-off when f = 0, for any D), the constraint residual of
+// p~, and the model's momentum maps.
+#include <nonholo/model.hpp>
+#include <nonholo/state.hpp>
+#include <nonholo/workspace.hpp>
+
+namespace nonholo {
+
+struct Diagnostics {
+  double energy = 0.0;       // (1/2) p~^T M^-1 p~ + V(q_k)
+  // (1/2) p^T M^-1 p + (V(q_{k-1}) + V(q_k))/2 for the post-momentum p = p_{k-1/2} of the step
+  // that arrived at t_k (p_{-1/2} at the start: the same energy when f = 0).
+  double energy_post = 0.0;
+  double residual = 0.0;     // max_a |(mu(q_k) M^-1 p~_k)_a|; NaN if mu(q_k) is not finite
+};
+
+// h is the step size in use. Allocation-free; reuses mu(q_k) when the workspace holds it.
+Diagnostics diagnose(const Model& model, Workspace& ws, const State& state, double h);
+
+// (1/2) p^T M^-1 p. scratch: n entries.
+double kinetic_energy(const Model& model, ConstVecRef p, VecRef scratch);
+
+// out[i] = J_i(q_k, p~_k) for the model's momentum maps, in declaration order. For a
+// horizontal symmetry xi, <p~_k, xi_Q(q_k)> is the paper's discrete nonholonomic momentum.
+void evaluate_momentum_maps(const Model& model, const State& state, VecRef out);
+
+}  // namespace nonholo

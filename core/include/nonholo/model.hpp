@@ -1,0 +1,77 @@
+#pragma once
+// The immutable description of a nonholonomic system: bodies with constant SPD mass
+// blocks (a block-diagonal metric M), constraint one-forms mu(q) with a fixed sparsity
+// pattern, potential, external forces and momentum maps. Build one with ModelBuilder;
+// share it by const& across threads (its callbacks must be thread-safe).
+#include <nonholo/sparse/block_diagonal.hpp>
+#include <nonholo/sparse/gram_assembler.hpp>
+#include <nonholo/sparse/patterns.hpp>
+#include <nonholo/types.hpp>
+
+#include <string>
+#include <vector>
+
+namespace nonholo {
+
+struct Body {
+  int offset = 0;  // first coordinate of the body
+  int size = 0;    // number of coordinates
+};
+
+struct NamedMomentumMap {
+  std::string name;
+  MomentumMap map;
+};
+
+class Model {
+ public:
+  int num_coordinates() const { return mass_.size(); }
+  int num_bodies() const { return static_cast<int>(bodies_.size()); }
+  int num_one_forms() const { return pattern_.rows; }
+  int num_one_form_values() const { return pattern_.nnz(); }
+  const Body& body(int b) const { return bodies_[b]; }
+  const std::vector<std::string>& coordinate_names() const { return names_; }
+
+  const sparse::BlockDiagonal& mass() const { return mass_; }
+  const sparse::BlockDiagonal& inverse_mass() const { return inverse_mass_; }
+  const sparse::RowPattern& one_form_pattern() const { return pattern_; }
+  // C = mu M^-1 mu^T: its fixed pattern and the index map that fills it.
+  const sparse::GramAssembler& gram() const { return gram_; }
+
+  void one_form_values(ConstVecRef q, VecRef values) const { values_(q, values); }
+  bool has_analytic_bias() const { return static_cast<bool>(bias_); }
+  // Only when has_analytic_bias(); see nonholo/dynamics.hpp for the general entry point.
+  void analytic_bias(ConstVecRef q, ConstVecRef qdot, VecRef bias) const { bias_(q, qdot, bias); }
+
+  bool has_potential() const { return static_cast<bool>(potential_); }
+  double potential(ConstVecRef q) const { return potential_ ? potential_(q) : 0.0; }
+  bool has_external_force() const { return static_cast<bool>(force_); }
+  // Whether f = -grad V + F can be nonzero; when false the integrators skip it entirely.
+  bool has_applied_force() const { return has_potential() || has_external_force(); }
+  // f = -grad V(q) + F(t, q). scratch: n entries, clobbered.
+  void applied_force(double t, ConstVecRef q, VecRef f, VecRef scratch) const;
+
+  const std::vector<NamedMomentumMap>& momentum_maps() const { return momentum_maps_; }
+
+  // Sparse products with the one-form values (nnz entries, pattern order).
+  void mu_times(const double* mu, const double* x, double* y) const;            // y = mu x
+  void mu_transpose_times(const double* mu, const double* lambda, double* g) const;  // g = mu^T lambda
+
+ private:
+  friend class ModelBuilder;
+  Model() = default;
+
+  std::vector<Body> bodies_;
+  std::vector<std::string> names_;
+  sparse::BlockDiagonal mass_, inverse_mass_;
+  sparse::RowPattern pattern_;
+  sparse::GramAssembler gram_;
+  OneFormValues values_;
+  OneFormBias bias_;
+  Potential potential_;
+  PotentialGradient gradient_;
+  ExternalForce force_;
+  std::vector<NamedMomentumMap> momentum_maps_;
+};
+
+}  // namespace nonholo

@@ -1,0 +1,50 @@
+#pragma once
+// Validating construction of a Model. Every mistake is reported by a std::invalid_argument
+// whose message names the body, row or column and the offending value.
+#include <nonholo/model.hpp>
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace nonholo {
+
+class ModelBuilder {
+ public:
+  // A body with one coordinate per name and a constant SPD mass block (names.size() square).
+  // Returns the body index. Throws on a non-square, mismatched, non-finite, non-symmetric or
+  // non-positive-definite block.
+  int add_body(const std::vector<std::string>& coordinate_names, const Eigen::MatrixXd& mass_block);
+  // A planar rigid body in centre-of-mass coordinates (x, y, theta): M = diag(m, m, I).
+  // Throws unless mass and inertia are finite and positive.
+  int add_planar_body(const std::array<std::string, 3>& coordinate_names, double mass, double inertia);
+
+  // A constraint row mu_a(q) qdot = 0 touching these coordinates (its sparsity pattern,
+  // fixed for ever). Returns the row index. Checked in build(): non-empty, no duplicates,
+  // every column in range.
+  int add_one_form(const std::vector<int>& columns);
+  // Fills the values of all rows at q (required when there are rows).
+  ModelBuilder& one_form_values(OneFormValues values);
+  // The bias (d/dt mu) qdot. Optional: without it, dynamics.hpp falls back to a central
+  // difference of the values along qdot (about 1e-10 relative accuracy).
+  ModelBuilder& one_form_bias(OneFormBias bias);
+  ModelBuilder& potential(Potential value, PotentialGradient gradient);
+  ModelBuilder& external_force(ExternalForce force);
+  ModelBuilder& momentum_map(const std::string& name, MomentumMap map);
+
+  Model build() const;
+
+ private:
+  std::vector<std::string> names_;
+  std::vector<Body> bodies_;
+  std::vector<Eigen::MatrixXd> blocks_;
+  std::vector<std::vector<int>> rows_;
+  OneFormValues values_;
+  OneFormBias bias_;
+  Potential potential_;
+  PotentialGradient gradient_;
+  ExternalForce force_;
+  std::vector<NamedMomentumMap> momentum_maps_;
+};
+
+}  // namespace nonholo

@@ -1,0 +1,11 @@
+#pragma once
+// Everything needed to build a model and integrate it.
+#include <nonholo/diagnostics.hpp>
+#include <nonholo/dynamics.hpp>
+#include <nonholo/model.hpp>
+#include <nonholo/model_builder.hpp>
+#include <nonholo/rattle.hpp>
+#include <nonholo/start.hpp>
+#include <nonholo/state.hpp>
+#include <nonholo/status.hpp>
+#include <nonholo/workspace.hpp>

@@ -1,0 +1,33 @@
+#pragma once
+// Consistent initial states for the reflection integrator (DESIGN.md section 2, start-up).
+// These are set-up calls: they throw std::invalid_argument with a precise message on bad
+// input (sizes, non-finite values, (q0, q1) outside M0) and std::runtime_error when the
+// one-forms are dependent at q0.
+#include <nonholo/model.hpp>
+#include <nonholo/state.hpp>
+#include <nonholo/workspace.hpp>
+
+namespace nonholo {
+
+enum class InitialMultiplier {
+  Continuous,  // lambda~_0 = lambda(0) of the index-reduced equations (the accurate choice)
+  Zero,        // lambda~_0 = 0 (about 16 times the error on the sleigh; for comparison)
+};
+
+struct StartOptions {
+  InitialMultiplier multiplier = InitialMultiplier::Continuous;
+  double min_pivot_ratio = 1e-12;
+};
+
+// Projects the velocity guess M-orthogonally onto D(q0): p~_0 = P* M v_guess, then sets
+// lambda~_0 as asked.
+State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
+                          ConstVecRef v_guess, const StartOptions& options = {});
+
+// The paper's start from (q0, q1) in M0 (its Remark in section 5): p~_0 = M (q1 - q0)/h
+// - (h/2) f(t0, q0), lambda~_0 = 0, so that the first step lands exactly on q1. Throws if
+// a row of mu(q0) M^-1 p~_0 = 0 fails by more than tolerance |mu_a|_1 |M^-1 p~_0|_inf.
+State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
+                            ConstVecRef q1, double h, double tolerance = 1e-10);
+
+}  // namespace nonholo

@@ -1,0 +1,20 @@
+#pragma once
+// What a step reports. The hot path never throws: a failed step returns one of these and
+// leaves the State exactly as it was; Workspace::message() has the detail.
+namespace nonholo {
+
+enum class Status {
+  Ok,
+  InvalidStepSize,      // h not positive and finite
+  SizeMismatch,         // state vectors do not have the model's sizes
+  WorkspaceMismatch,    // the workspace was built for another model
+  NonFiniteOneForms,    // mu(q) has NaN or Inf entries
+  NonFiniteState,       // the new q, p or lambda would not be finite
+  DependentOneForms,    // C singular: the one-forms are linearly dependent here
+  NearlyDependentOneForms,  // a pivot of C below the tolerance (e.g. a jackknifing train)
+  LinearSolverFailure,  // the sparse solver failed (memory, size, invalid input)
+};
+
+const char* to_string(Status status);
+
+}  // namespace nonholo

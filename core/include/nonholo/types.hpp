@@ -1,0 +1,25 @@
+#pragma once
+// Vector types and the callback signatures a Model is built from.
+#include <Eigen/Core>
+#include <functional>
+
+namespace nonholo {
+
+using Vector = Eigen::VectorXd;
+using VecRef = Eigen::Ref<Eigen::VectorXd>;
+using ConstVecRef = Eigen::Ref<const Eigen::VectorXd>;
+
+// Values of the one-forms mu(q), row by row, in the order of each row's columns as
+// declared in the pattern (nnz values). Must be a pure function of q (it is called from
+// several threads and its result may be cached).
+using OneFormValues = std::function<void(ConstVecRef q, VecRef values)>;
+// The bias term (d/dt mu(q(t))) qdot, one entry per row: sum_ij d mu_ai / d q_j qdot_j qdot_i.
+using OneFormBias = std::function<void(ConstVecRef q, ConstVecRef qdot, VecRef bias)>;
+using Potential = std::function<double(ConstVecRef q)>;
+using PotentialGradient = std::function<void(ConstVecRef q, VecRef gradient)>;
+// Generalised external forces / controls F(t, q); must write all n entries.
+using ExternalForce = std::function<void(double t, ConstVecRef q, VecRef force)>;
+// A scalar momentum map J(q, p), for example <p, xi_Q(q)> for a symmetry xi.
+using MomentumMap = std::function<double(ConstVecRef q, ConstVecRef p)>;
+
+}  // namespace nonholo

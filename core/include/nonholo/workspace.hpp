@@ -1,0 +1,54 @@
+#pragma once
+// Everything a thread needs to integrate one Model: every buffer sized once here, and its
+// own factorisation of C (for CHOLMOD, its own cholmod_common). One Workspace per thread;
+// the Model must outlive it. The buffers are scratch owned by the integrators.
+#include <nonholo/model.hpp>
+#include <nonholo/sparse/factorization.hpp>
+#include <nonholo/status.hpp>
+
+#include <memory>
+
+namespace nonholo {
+
+struct WorkspaceOptions {
+  sparse::Backend backend = sparse::Backend::Auto;
+};
+
+class Workspace {
+ public:
+  explicit Workspace(const Model& model, const WorkspaceOptions& options = {});
+
+  const Model& model() const { return *model_; }
+  // The factorisation in use ("dense", "cholmod"); "none" for a model without one-forms.
+  sparse::Backend backend() const;
+  const char* backend_name() const;
+  // Why the last failed call failed ("" if it did not).
+  const char* message() const { return message_; }
+
+  // --- used by the integrators (nonholo/rattle.hpp, start.hpp, dynamics.hpp) --------------
+  // Evaluates mu at q into mu_values unless they already hold mu(q) (mu is a pure function
+  // of q, so the cache is keyed by the bits of q). Returns NonFiniteOneForms on NaN/Inf.
+  Status evaluate_one_forms(ConstVecRef q);
+  // Marks mu_values as not belonging to any configuration.
+  void forget_one_forms() { mu_valid_ = false; }
+  // Assembles C from mu_values and factorises it.
+  Status factorize(double min_pivot_ratio);
+  // lambda = C^-1 rhs after factorize().
+  Status solve(const double* rhs, double* lambda);
+  Status fail(Status status, const char* format, ...) __attribute__((format(printf, 3, 4)));
+  void clear_message() { message_[0] = '\0'; }
+
+  // Scratch vectors of size n (coordinates) ...
+  Vector q_next, p_half, p_hat, p_next, velocity, applied, force_next, scratch_n, scratch_n2;
+  // ... of size nnz(mu), nnz(C) and m (one-form rows).
+  Vector mu_values, c_values, rhs, lambda, scratch_m, scratch_nnz, scratch_nnz2;
+
+ private:
+  const Model* model_;
+  std::unique_ptr<sparse::Factorization> factor_;
+  Vector mu_q_;  // the q whose one-form values mu_values holds, when mu_valid_
+  bool mu_valid_ = false;
+  char message_[320];
+};
+
+}  // namespace nonholo

@@ -1,0 +1,43 @@
+#include <nonholo/diagnostics.hpp>
+
+#include <cmath>
+#include <limits>
+
+namespace nonholo {
+
+double kinetic_energy(const Model& model, ConstVecRef p, VecRef scratch) {
+  model.inverse_mass().multiply(p.data(), scratch.data());
+  return 0.5 * p.dot(scratch);
+}
+
+Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h) {
+  Diagnostics d;
+  const double v_now = model.potential(s.q);
+  d.energy = kinetic_energy(model, s.p, ws.scratch_n) + v_now;
+
+  // p_{k-1/2} = p~_k - (h/2) force_k, and q_{k-1} = q_k - h M^-1 p_{k-1/2}.
+  ws.scratch_n2 = s.p - 0.5 * h * s.force;
+  d.energy_post = kinetic_energy(model, ws.scratch_n2, ws.scratch_n);
+  if (model.has_potential()) {
+    ws.scratch_n2 = s.q - h * ws.scratch_n;
+    d.energy_post += 0.5 * (model.potential(ws.scratch_n2) + v_now);
+  }
+
+  if (model.num_one_forms() > 0) {
+    if (ws.evaluate_one_forms(s.q) != Status::Ok) {
+      d.residual = std::numeric_limits<double>::quiet_NaN();
+      return d;
+    }
+    model.inverse_mass().multiply(s.p.data(), ws.scratch_n.data());
+    model.mu_times(ws.mu_values.data(), ws.scratch_n.data(), ws.scratch_m.data());
+    d.residual = ws.scratch_m.lpNorm<Eigen::Infinity>();
+  }
+  return d;
+}
+
+void evaluate_momentum_maps(const Model& model, const State& s, VecRef out) {
+  const auto& maps = model.momentum_maps();
+  for (std::size_t i = 0; i < maps.size(); ++i) out[static_cast<Eigen::Index>(i)] = maps[i].map(s.q, s.p);
+}
+
+}  // namespace nonholo

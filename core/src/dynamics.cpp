@@ -1,0 +1,72 @@
+#include <nonholo/dynamics.hpp>
+
+#include <cmath>
+#include <limits>
+
+namespace nonholo {
+
+Status one_form_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias) {
+  const int m = model.num_one_forms();
+  if (m == 0) return Status::Ok;
+  if (model.has_analytic_bias()) {
+    model.analytic_bias(q, qdot, bias);
+    return Status::Ok;
+  }
+  const double speed = qdot.lpNorm<Eigen::Infinity>();
+  if (speed == 0.0) {
+    bias.setZero();
+    return Status::Ok;
+  }
+  // Central difference along qdot; the displacement's size balances truncation (delta^2)
+  // against cancellation (eps / delta).
+  const double delta = std::cbrt(std::numeric_limits<double>::epsilon()) *
+                       (1.0 + q.lpNorm<Eigen::Infinity>()) / speed;
+  const int nnz = model.num_one_form_values();
+  Vector& mu_plus = ws.scratch_nnz;
+  Vector& mu_minus = ws.scratch_nnz2;
+  ws.scratch_n2 = q + delta * qdot;
+  model.one_form_values(ws.scratch_n2, mu_plus);
+  ws.scratch_n2 = q - delta * qdot;
+  model.one_form_values(ws.scratch_n2, mu_minus);
+  for (int k = 0; k < nnz; ++k) mu_plus[k] = (mu_plus[k] - mu_minus[k]) / (2.0 * delta);
+  model.mu_times(mu_plus.data(), qdot.data(), bias.data());
+  if (!std::isfinite(bias.sum()))
+    return ws.fail(Status::NonFiniteOneForms, "the difference quotient of mu along qdot is not finite");
+  return Status::Ok;
+}
+
+Status project_momentum(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p,
+                        VecRef p_out, double min_pivot_ratio) {
+  if (model.num_one_forms() == 0) {
+    p_out = p;
+    return Status::Ok;
+  }
+  Status status = ws.evaluate_one_forms(q);
+  if (status == Status::Ok) status = ws.factorize(min_pivot_ratio);
+  if (status != Status::Ok) return status;
+  model.inverse_mass().multiply(p.data(), ws.velocity.data());
+  model.mu_times(ws.mu_values.data(), ws.velocity.data(), ws.rhs.data());
+  if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
+  model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
+  p_out = p - ws.scratch_n;
+  return Status::Ok;
+}
+
+Status constraint_multiplier(const Model& model, Workspace& ws, double t, ConstVecRef q,
+                             ConstVecRef qdot, VecRef lambda, double min_pivot_ratio) {
+  if (model.num_one_forms() == 0) return Status::Ok;
+  Status status = ws.evaluate_one_forms(q);
+  if (status == Status::Ok) status = ws.factorize(min_pivot_ratio);
+  if (status == Status::Ok) status = one_form_bias(model, ws, q, qdot, ws.rhs);
+  if (status != Status::Ok) return status;
+  if (model.has_applied_force()) {
+    model.applied_force(t, q, ws.applied, ws.scratch_n);
+    model.inverse_mass().multiply(ws.applied.data(), ws.velocity.data());
+    model.mu_times(ws.mu_values.data(), ws.velocity.data(), ws.scratch_m.data());
+    ws.rhs += ws.scratch_m;
+  }
+  ws.rhs = -ws.rhs;
+  return ws.solve(ws.rhs.data(), lambda.data());
+}
+
+}  // namespace nonholo

@@ -1,0 +1,34 @@
+#include <nonholo/model.hpp>
+
+namespace nonholo {
+
+void Model::applied_force(double t, ConstVecRef q, VecRef f, VecRef scratch) const {
+  if (force_)
+    force_(t, q, f);
+  else
+    f.setZero();
+  if (gradient_) {
+    gradient_(q, scratch);
+    f -= scratch;
+  }
+}
+
+void Model::mu_times(const double* mu, const double* x, double* y) const {
+  const int* rp = pattern_.row_ptr.data();
+  const int* ci = pattern_.col_idx.data();
+  for (int r = 0; r < pattern_.rows; ++r) {
+    double s = 0.0;
+    for (int k = rp[r]; k < rp[r + 1]; ++k) s += mu[k] * x[ci[k]];
+    y[r] = s;
+  }
+}
+
+void Model::mu_transpose_times(const double* mu, const double* lambda, double* g) const {
+  const int* rp = pattern_.row_ptr.data();
+  const int* ci = pattern_.col_idx.data();
+  for (int i = 0; i < pattern_.cols; ++i) g[i] = 0.0;
+  for (int r = 0; r < pattern_.rows; ++r)
+    for (int k = rp[r]; k < rp[r + 1]; ++k) g[ci[k]] += mu[k] * lambda[r];
+}
+
+}  // namespace nonholo

@@ -1,0 +1,177 @@
+#include <nonholo/model_builder.hpp>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+namespace nonholo {
+namespace {
+
+std::string describe_body(int index, const std::vector<std::string>& names) {
+  std::ostringstream os;
+  os << "body " << index << " (";
+  for (std::size_t i = 0; i < names.size(); ++i) os << (i ? ", " : "") << names[i];
+  os << ")";
+  return os.str();
+}
+
+[[noreturn]] void fail(const std::string& message) { throw std::invalid_argument(message); }
+
+}  // namespace
+
+int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::MatrixXd& block) {
+  const int index = static_cast<int>(bodies_.size());
+  const int k = static_cast<int>(names.size());
+  const std::string who = describe_body(index, names);
+  if (k == 0) fail("body " + std::to_string(index) + " has no coordinates");
+  if (block.rows() != k || block.cols() != k) {
+    std::ostringstream os;
+    os << who << ": mass block is " << block.rows() << "x" << block.cols() << ", expected " << k
+       << "x" << k << " (one row and column per coordinate)";
+    fail(os.str());
+  }
+  for (int i = 0; i < k; ++i) {
+    if (names[i].empty()) fail(who + ": coordinate " + std::to_string(i) + " has an empty name");
+    for (std::size_t b = 0; b < bodies_.size(); ++b)
+      for (int j = 0; j < bodies_[b].size; ++j)
+        if (names_[bodies_[b].offset + j] == names[i])
+          fail("coordinate name '" + names[i] + "' is used by body " + std::to_string(b) +
+               " and by " + who);
+    for (int j = 0; j < i; ++j)
+      if (names[j] == names[i]) fail(who + ": coordinate name '" + names[i] + "' appears twice");
+  }
+  for (int i = 0; i < k; ++i)
+    for (int j = 0; j < k; ++j)
+      if (!std::isfinite(block(i, j))) {
+        std::ostringstream os;
+        os << who << ": mass block entry (" << i << ", " << j << ") is " << block(i, j);
+        fail(os.str());
+      }
+  for (int i = 0; i < k; ++i)
+    if (!(block(i, i) > 0.0)) {
+      std::ostringstream os;
+      os << who << ": mass block entry (" << i << ", " << i << ") for " << names[i] << " is "
+         << block(i, i) << "; a mass or moment of inertia must be positive";
+      fail(os.str());
+    }
+  const double scale = block.cwiseAbs().maxCoeff();
+  for (int i = 0; i < k; ++i)
+    for (int j = 0; j < i; ++j)
+      if (std::abs(block(i, j) - block(j, i)) > 1e-12 * scale) {
+        std::ostringstream os;
+        os.precision(17);
+        os << who << ": mass block is not symmetric: M(" << i << ", " << j << ") = " << block(i, j)
+           << " but M(" << j << ", " << i << ") = " << block(j, i);
+        fail(os.str());
+      }
+  const Eigen::MatrixXd symmetric = 0.5 * (block + block.transpose());
+  const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(symmetric).eigenvalues()(0);
+  if (!(smallest > 1e-14 * scale)) {
+    std::ostringstream os;
+    os << who << ": mass block is not positive definite (smallest eigenvalue " << smallest << ")";
+    fail(os.str());
+  }
+  bodies_.push_back({static_cast<int>(names_.size()), k});
+  names_.insert(names_.end(), names.begin(), names.end());
+  blocks_.push_back(symmetric);
+  return index;
+}
+
+int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, double mass, double inertia) {
+  const std::vector<std::string> list(names.begin(), names.end());
+  const std::string who = describe_body(static_cast<int>(bodies_.size()), list);
+  auto check = [&](const char* what, double value) {
+    if (!(value > 0.0) || !std::isfinite(value)) {
+      std::ostringstream os;
+      os << who << ": " << what << " = " << value << " must be positive and finite";
+      fail(os.str());
+    }
+  };
+  check("mass m", mass);
+  check("moment of inertia I", inertia);
+  return add_body(list, Eigen::Vector3d(mass, mass, inertia).asDiagonal().toDenseMatrix());
+}
+
+int ModelBuilder::add_one_form(const std::vector<int>& columns) {
+  rows_.push_back(columns);
+  return static_cast<int>(rows_.size()) - 1;
+}
+
+ModelBuilder& ModelBuilder::one_form_values(OneFormValues values) {
+  if (!values) fail("one_form_values: the value function is empty");
+  values_ = std::move(values);
+  return *this;
+}
+
+ModelBuilder& ModelBuilder::one_form_bias(OneFormBias bias) {
+  bias_ = std::move(bias);
+  return *this;
+}
+
+ModelBuilder& ModelBuilder::potential(Potential value, PotentialGradient gradient) {
+  if (static_cast<bool>(value) != static_cast<bool>(gradient))
+    fail("potential: give both the value and its gradient, or neither");
+  potential_ = std::move(value);
+  gradient_ = std::move(gradient);
+  return *this;
+}
+
+ModelBuilder& ModelBuilder::external_force(ExternalForce force) {
+  force_ = std::move(force);
+  return *this;
+}
+
+ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap map) {
+  if (name.empty()) fail("momentum_map: the name is empty");
+  if (!map) fail("momentum_map '" + name + "': the function is empty");
+  for (const auto& existing : momentum_maps_)
+    if (existing.name == name) fail("momentum_map '" + name + "' is defined twice");
+  momentum_maps_.push_back({name, std::move(map)});
+  return *this;
+}
+
+Model ModelBuilder::build() const {
+  if (bodies_.empty()) fail("the model has no bodies");
+  const int n = static_cast<int>(names_.size());
+
+  Model model;
+  model.bodies_ = bodies_;
+  model.names_ = names_;
+  for (const auto& block : blocks_) model.mass_.add_block(block);
+  model.inverse_mass_ = model.mass_.inverse();
+
+  model.pattern_.rows = static_cast<int>(rows_.size());
+  model.pattern_.cols = n;
+  for (std::size_t r = 0; r < rows_.size(); ++r) {
+    const std::string row = "one-form row " + std::to_string(r);
+    if (rows_[r].empty()) fail(row + " has no columns (an empty row constrains nothing)");
+    std::map<int, int> seen;
+    for (int c : rows_[r]) {
+      if (c < 0 || c >= n) {
+        std::ostringstream os;
+        os << row << ": column " << c << " is out of range (the model has " << n
+           << " coordinates, columns 0 to " << n - 1 << ")";
+        fail(os.str());
+      }
+      if (seen[c]++) fail(row + ": column " + std::to_string(c) + " (" + names_[c] + ") appears twice");
+      model.pattern_.col_idx.push_back(c);
+    }
+    model.pattern_.row_ptr.push_back(model.pattern_.nnz());
+  }
+  if (!rows_.empty() && !values_)
+    fail("the model has " + std::to_string(rows_.size()) +
+         " one-form rows but no value function (call one_form_values)");
+  model.gram_ = sparse::GramAssembler(model.pattern_, model.inverse_mass_);
+
+  model.values_ = values_;
+  model.bias_ = bias_;
+  model.potential_ = potential_;
+  model.gradient_ = gradient_;
+  model.force_ = force_;
+  model.momentum_maps_ = momentum_maps_;
+  return model;
+}
+
+}  // namespace nonholo

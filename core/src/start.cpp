@@ -1,0 +1,123 @@
+#include <nonholo/start.hpp>
+
+#include <nonholo/dynamics.hpp>
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace nonholo {
+namespace {
+
+void check_vector(const char* what, ConstVecRef v, const Model& model) {
+  const int n = model.num_coordinates();
+  if (v.size() != n) {
+    std::ostringstream os;
+    os << "start: expected " << n << " entries in " << what << " (one per coordinate), got " << v.size();
+    throw std::invalid_argument(os.str());
+  }
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) {
+      std::ostringstream os;
+      os << "start: " << what << "[" << i << "] (" << model.coordinate_names()[i] << ") is " << v[i];
+      throw std::invalid_argument(os.str());
+    }
+}
+
+void check(Status status, const Workspace& ws, const char* doing) {
+  if (status == Status::Ok) return;
+  throw std::runtime_error(std::string("start: ") + doing + ": " + to_string(status) + ": " + ws.message());
+}
+
+State allocate_state(const Model& model, double t0, ConstVecRef q0) {
+  State s;
+  s.t = t0;
+  s.q = q0;
+  s.p.setZero(model.num_coordinates());
+  s.force.setZero(model.num_coordinates());
+  s.lambda.setZero(model.num_one_forms());
+  return s;
+}
+
+void check_time(double t0) {
+  if (!std::isfinite(t0)) {
+    std::ostringstream os;
+    os << "start: initial time t0 = " << t0 << " is not finite";
+    throw std::invalid_argument(os.str());
+  }
+}
+
+}  // namespace
+
+State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
+                          ConstVecRef v_guess, const StartOptions& options) {
+  check_time(t0);
+  check_vector("q0", q0, model);
+  check_vector("the velocity guess", v_guess, model);
+  State s = allocate_state(model, t0, q0);
+
+  model.mass().multiply(v_guess.data(), s.p.data());
+  check(project_momentum(model, ws, s.q, s.p, s.p, options.min_pivot_ratio), ws,
+        "projecting the velocity onto D(q0)");
+
+  Vector v(model.num_coordinates());
+  model.inverse_mass().multiply(s.p.data(), v.data());
+  if (options.multiplier == InitialMultiplier::Continuous)
+    check(constraint_multiplier(model, ws, t0, s.q, v, s.lambda, options.min_pivot_ratio), ws,
+          "computing the continuous multiplier at q0");
+
+  Vector scratch(model.num_coordinates());
+  if (model.has_applied_force()) model.applied_force(t0, s.q, s.force, scratch);
+  if (model.num_one_forms() > 0) {
+    check(ws.evaluate_one_forms(s.q), ws, "evaluating the one-forms at q0");
+    model.mu_transpose_times(ws.mu_values.data(), s.lambda.data(), scratch.data());
+    s.force += scratch;
+  }
+  return s;
+}
+
+State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
+                            ConstVecRef q1, double h, double tolerance) {
+  check_time(t0);
+  check_vector("q0", q0, model);
+  check_vector("q1", q1, model);
+  if (!(h > 0.0) || !std::isfinite(h)) {
+    std::ostringstream os;
+    os << "start: step size h = " << h << " must be positive and finite";
+    throw std::invalid_argument(os.str());
+  }
+  State s = allocate_state(model, t0, q0);
+  const int n = model.num_coordinates();
+  Vector dq = (q1 - q0) / h, scratch(n);
+  model.mass().multiply(dq.data(), s.p.data());
+  if (model.has_applied_force()) {
+    model.applied_force(t0, s.q, s.force, scratch);
+    s.p -= 0.5 * h * s.force;
+  }
+
+  // (q0, q1) in M0  <=>  mu(q0) M^-1 p~_0 = 0, checked row by row against the row's
+  // scale |mu_a|_1 |M^-1 p~_0|_inf so that the test does not depend on units.
+  if (model.num_one_forms() > 0) {
+    check(ws.evaluate_one_forms(s.q), ws, "evaluating the one-forms at q0");
+    Vector v(n);
+    model.inverse_mass().multiply(s.p.data(), v.data());
+    const double speed = v.lpNorm<Eigen::Infinity>();
+    const auto& pattern = model.one_form_pattern();
+    for (int r = 0; r < pattern.rows; ++r) {
+      double sum = 0.0, row_norm = 0.0;
+      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k) {
+        sum += ws.mu_values[k] * v[pattern.col_idx[k]];
+        row_norm += std::abs(ws.mu_values[k]);
+      }
+      if (std::abs(sum) > tolerance * row_norm * speed) {
+        std::ostringstream os;
+        os << "start: (q0, q1) is not in M0: one-form row " << r << " gives mu(q0) M^-1 p0 = " << sum
+           << ", more than " << tolerance << " times |mu_" << r << "|_1 |M^-1 p0|_inf = " << row_norm * speed;
+        throw std::invalid_argument(os.str());
+      }
+    }
+  }
+  return s;  // lambda~_0 = 0, force = f(t0, q0)
+}
+
+}  // namespace nonholo

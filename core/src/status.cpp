@@ -1,0 +1,20 @@
+#include <nonholo/status.hpp>
+
+namespace nonholo {
+
+const char* to_string(Status status) {
+  switch (status) {
+    case Status::Ok: return "ok";
+    case Status::InvalidStepSize: return "invalid-step-size";
+    case Status::SizeMismatch: return "size-mismatch";
+    case Status::WorkspaceMismatch: return "workspace-mismatch";
+    case Status::NonFiniteOneForms: return "non-finite-one-forms";
+    case Status::NonFiniteState: return "non-finite-state";
+    case Status::DependentOneForms: return "dependent-one-forms";
+    case Status::NearlyDependentOneForms: return "nearly-dependent-one-forms";
+    case Status::LinearSolverFailure: return "linear-solver-failure";
+  }
+  return "unknown";
+}
+
+}  // namespace nonholo

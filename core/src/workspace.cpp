@@ -1,0 +1,87 @@
+#include <nonholo/workspace.hpp>
+
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstring>
+
+namespace nonholo {
+
+Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : model_(&model) {
+  const int n = model.num_coordinates(), m = model.num_one_forms();
+  for (Vector* v : {&q_next, &p_half, &p_hat, &p_next, &velocity, &applied, &force_next,
+                    &scratch_n, &scratch_n2, &mu_q_})
+    v->setZero(n);
+  mu_values.setZero(model.num_one_form_values());
+  scratch_nnz.setZero(model.num_one_form_values());
+  scratch_nnz2.setZero(model.num_one_form_values());
+  c_values.setZero(model.gram().pattern().nnz());
+  rhs.setZero(m);
+  lambda.setZero(m);
+  scratch_m.setZero(m);
+  if (m > 0) factor_ = sparse::make_factorization(options.backend, model.gram().pattern());
+  message_[0] = '\0';
+}
+
+sparse::Backend Workspace::backend() const {
+  return factor_ ? factor_->backend() : sparse::Backend::Auto;
+}
+
+const char* Workspace::backend_name() const {
+  return factor_ ? sparse::to_string(factor_->backend()) : "none";
+}
+
+Status Workspace::evaluate_one_forms(ConstVecRef q) {
+  const int n = model_->num_coordinates();
+  if (mu_valid_ && std::memcmp(q.data(), mu_q_.data(), sizeof(double) * n) == 0) return Status::Ok;
+  mu_valid_ = false;
+  if (model_->num_one_forms() == 0) return Status::Ok;
+  model_->one_form_values(q, mu_values);
+  if (!std::isfinite(mu_values.sum())) {
+    const auto& pattern = model_->one_form_pattern();
+    for (int r = 0; r < pattern.rows; ++r)
+      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
+        if (!std::isfinite(mu_values[k]))
+          return fail(Status::NonFiniteOneForms, "one-form row %d, column %d (%s) has value %g", r,
+                      pattern.col_idx[k], model_->coordinate_names()[pattern.col_idx[k]].c_str(),
+                      mu_values[k]);
+  }
+  mu_q_ = q;
+  mu_valid_ = true;
+  return Status::Ok;
+}
+
+Status Workspace::factorize(double min_pivot_ratio) {
+  if (!factor_) return Status::Ok;
+  model_->gram().assemble(mu_values.data(), c_values.data());
+  using sparse::FactorStatus;
+  const FactorStatus s = factor_->factorize(c_values.data(), min_pivot_ratio);
+  switch (s) {
+    case FactorStatus::Ok: return Status::Ok;
+    case FactorStatus::NotPositiveDefinite:
+      return fail(Status::DependentOneForms, "%s", factor_->message());
+    case FactorStatus::NearlySingular:
+      return fail(Status::NearlyDependentOneForms, "%s", factor_->message());
+    case FactorStatus::NonFinite:
+      return fail(Status::NonFiniteOneForms, "%s", factor_->message());
+    default:
+      return fail(Status::LinearSolverFailure, "%s (%s)", factor_->message(), sparse::to_string(s));
+  }
+}
+
+Status Workspace::solve(const double* b, double* x) {
+  if (!factor_) return Status::Ok;
+  if (factor_->solve(b, x) != sparse::FactorStatus::Ok)
+    return fail(Status::LinearSolverFailure, "%s", factor_->message());
+  return Status::Ok;
+}
+
+Status Workspace::fail(Status status, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(message_, sizeof message_, format, args);
+  va_end(args);
+  return status;
+}
+
+}  // namespace nonholo

@@ -1,0 +1,40 @@
+#pragma once
+// Named scene parameters with defaults, set from the command line as NAME=VALUE.
+#include <string>
+#include <vector>
+
+namespace nonholo::scenarios {
+
+struct ParameterSpec {
+  std::string name;
+  double default_value;
+  std::string description;
+};
+
+class Parameters {
+ public:
+  Parameters(std::string scene, std::vector<ParameterSpec> specs);
+
+  // Throws std::invalid_argument for an unknown name (listing the valid ones) or a
+  // non-finite value.
+  void set(const std::string& name, double value);
+  // "NAME=VALUE", as given to --set.
+  void assign(const std::string& assignment);
+
+  double operator[](const std::string& name) const;
+  // Throws unless the parameter is finite and > 0 (>= 0 when allow_zero).
+  double positive(const std::string& name, bool allow_zero = false) const;
+  const std::vector<ParameterSpec>& specs() const { return specs_; }
+  const std::string& scene() const { return scene_; }
+
+ private:
+  int index_of(const std::string& name) const;  // -1 if unknown
+  std::string scene_;
+  std::vector<ParameterSpec> specs_;
+  std::vector<double> values_;
+};
+
+// Strict decimal parse of the whole string; throws std::invalid_argument naming `context`.
+double parse_number(const std::string& text, const std::string& context);
+
+}  // namespace nonholo::scenarios

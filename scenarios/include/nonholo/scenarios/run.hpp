@@ -1,0 +1,47 @@
+#pragma once
+// `nonholo run`: integrate one scene, optionally write its trajectory as CSV, and summarise.
+#include <nonholo/scenarios/scene.hpp>
+#include <nonholo/sparse/factorization.hpp>
+#include <nonholo/status.hpp>
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace nonholo::scenarios {
+
+struct RunConfig {
+  std::string scene;
+  std::vector<std::string> assignments;  // NAME=VALUE, applied in order
+  double dt = 0.0;                       // 0: the scene's default
+  double t_end = -1.0;                   // < 0: the scene's default
+  std::string csv_path;                  // empty: no CSV
+  long every = 1;                        // write every K-th step (and the last)
+  sparse::Backend backend = sparse::Backend::Auto;
+};
+
+struct RunSummary {
+  std::string scene;
+  std::string backend;
+  Status status = Status::Ok;
+  std::string message;  // why the run stopped early
+  long steps = 0;
+  double dt = 0.0;
+  double t_final = 0.0;
+  double wall_s = 0.0;       // whole run: set-up, integration, diagnostics, output
+  double ns_per_step = 0.0;  // integration and per-step diagnostics, without set-up or CSV
+  double energy_rel_err_max = 0.0;
+  double energy_post_rel_err_max = 0.0;
+  double residual_max = 0.0;
+  bool has_momentum = false;
+  double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|
+
+  // One line of space-separated key=value pairs.
+  std::string line() const;
+};
+
+// Throws std::invalid_argument (unknown scene or parameter, bad value, CSV not writable)
+// before integrating; a failed step ends the run early with summary.status set.
+RunSummary run_scene(const RunConfig& config);
+
+}  // namespace nonholo::scenarios

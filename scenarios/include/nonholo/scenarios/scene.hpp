@@ -1,0 +1,39 @@
+#pragma once
+// The built-in scenes of DESIGN.md section 5: each turns a set of parameters into a Model
+// and an initial configuration with a velocity guess (projected onto D at start-up).
+#include <nonholo/model.hpp>
+#include <nonholo/scenarios/parameters.hpp>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace nonholo::scenarios {
+
+struct SceneSetup {
+  Model model;
+  double t0 = 0.0;
+  Vector q0;
+  Vector v0;  // velocity guess
+};
+
+struct SceneInfo {
+  std::string name;
+  std::string description;
+  std::vector<ParameterSpec> parameters;
+  double default_dt;
+  double default_t_end;
+  std::function<SceneSetup(const Parameters&)> build;
+
+  Parameters defaults() const { return Parameters(name, parameters); }
+};
+
+SceneInfo particle_scene();
+SceneInfo sleigh_scene();
+SceneInfo snakeboard_scene();
+
+const std::vector<SceneInfo>& scene_catalogue();
+// Throws std::invalid_argument listing the known scenes.
+const SceneInfo& find_scene(const std::string& name);
+
+}  // namespace nonholo::scenarios

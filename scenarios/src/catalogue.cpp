@@ -1,0 +1,20 @@
+#include <nonholo/scenarios/scene.hpp>
+
+#include <stdexcept>
+
+namespace nonholo::scenarios {
+
+const std::vector<SceneInfo>& scene_catalogue() {
+  static const std::vector<SceneInfo> scenes{particle_scene(), sleigh_scene(), snakeboard_scene()};
+  return scenes;
+}
+
+const SceneInfo& find_scene(const std::string& name) {
+  for (const auto& s : scene_catalogue())
+    if (s.name == name) return s;
+  std::string known;
+  for (const auto& s : scene_catalogue()) known += (known.empty() ? "" : ", ") + s.name;
+  throw std::invalid_argument("unknown scene '" + name + "' (known: " + known + ")");
+}
+
+}  // namespace nonholo::scenarios

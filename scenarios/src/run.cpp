@@ -1,0 +1,171 @@
+#include <nonholo/scenarios/run.hpp>
+
+#include <nonholo/diagnostics.hpp>
+#include <nonholo/rattle.hpp>
+#include <nonholo/start.hpp>
+
+#include <chrono>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+namespace nonholo::scenarios {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// max that lets a NaN through instead of hiding it.
+double worst(double so_far, double value) { return (std::isnan(value) || value > so_far) ? value : so_far; }
+
+// Relative change, or absolute when the reference is zero.
+double relative_change(double value, double reference) {
+  const double diff = std::abs(value - reference);
+  return reference != 0.0 ? diff / std::abs(reference) : diff;
+}
+
+// CSV rows with shortest round-trip formatting, so no digit of the state is lost.
+class CsvWriter {
+ public:
+  CsvWriter(const std::string& path, const std::vector<std::string>& coordinates) : path_(path) {
+    file_ = std::fopen(path.c_str(), "w");
+    if (!file_)
+      throw std::invalid_argument("cannot open '" + path + "' for writing: " + std::strerror(errno));
+    std::string header = "t";
+    for (const auto& c : coordinates) header += "," + c;
+    header += ",energy,energy_post,residual\n";
+    std::fputs(header.c_str(), file_);
+  }
+  ~CsvWriter() {
+    if (file_) std::fclose(file_);
+  }
+  void row(double t, const Vector& q, const Diagnostics& d) {
+    char* p = buffer_;
+    put(p, t);
+    for (Eigen::Index i = 0; i < q.size(); ++i) put(p, q[i]);
+    put(p, d.energy);
+    put(p, d.energy_post);
+    put(p, d.residual);
+    p[-1] = '\n';
+    std::fwrite(buffer_, 1, static_cast<std::size_t>(p - buffer_), file_);
+  }
+  // Flushes and reports a write error (disk full, ...) as an exception.
+  void close() {
+    const bool bad = std::ferror(file_) != 0;
+    const int rc = std::fclose(file_);
+    file_ = nullptr;
+    if (bad || rc != 0) throw std::runtime_error("error writing '" + path_ + "': " + std::strerror(errno));
+  }
+  bool fits(Eigen::Index n) const { return (n + 4) * 32 < static_cast<Eigen::Index>(sizeof buffer_); }
+
+ private:
+  static void put(char*& p, double v) {
+    p = std::to_chars(p, p + 32, v).ptr;
+    *p++ = ',';
+  }
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  char buffer_[1 << 16];
+};
+
+}  // namespace
+
+std::string RunSummary::line() const {
+  std::ostringstream os;
+  os.precision(6);
+  os << "scene=" << scene << " method=reflection steps=" << steps << " dt=" << dt
+     << " t_end=" << t_final << " wall_s=" << wall_s << " ns_per_step=" << ns_per_step
+     << " energy_rel_err_max=" << energy_rel_err_max
+     << " energy_post_rel_err_max=" << energy_post_rel_err_max << " residual_max=" << residual_max;
+  if (has_momentum) os << " momentum_drift_max=" << momentum_drift_max;
+  os << " backend=" << backend << " status=" << to_string(status);
+  return os.str();
+}
+
+RunSummary run_scene(const RunConfig& config) {
+  const auto start_time = Clock::now();
+  const SceneInfo& info = find_scene(config.scene);
+  Parameters params = info.defaults();
+  for (const auto& a : config.assignments) params.assign(a);
+
+  const double dt = config.dt > 0.0 ? config.dt : info.default_dt;
+  const double t_end = config.t_end >= 0.0 ? config.t_end : info.default_t_end;
+  RattleOptions options;
+  options.h = dt;
+  validate(options);
+  if (!std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite");
+  if (config.every < 1)
+    throw std::invalid_argument("--every " + std::to_string(config.every) + ": must be at least 1");
+  // Whole steps of size dt; the run ends at the first multiple of dt at or after t_end.
+  const double ratio = t_end / dt;
+  if (ratio > 1e12) throw std::invalid_argument("t_end / dt is above 1e12 steps");
+  const long steps = static_cast<long>(std::ceil(ratio * (1.0 - 1e-12)));
+
+  SceneSetup setup = info.build(params);
+  const Model& model = setup.model;
+  Workspace ws(model, WorkspaceOptions{config.backend});
+  State state = start_from_velocity(model, ws, setup.t0, setup.q0, setup.v0);
+
+  std::unique_ptr<CsvWriter> csv;
+  if (!config.csv_path.empty()) {
+    csv = std::make_unique<CsvWriter>(config.csv_path, model.coordinate_names());
+    if (!csv->fits(model.num_coordinates()))
+      throw std::invalid_argument("too many coordinates for one CSV row buffer");
+  }
+
+  RunSummary summary;
+  summary.scene = info.name;
+  summary.backend = ws.backend_name();
+  summary.dt = dt;
+  summary.has_momentum = !model.momentum_maps().empty();
+
+  const Diagnostics d0 = diagnose(model, ws, state, dt);
+  Vector j0(model.momentum_maps().size()), j(model.momentum_maps().size());
+  evaluate_momentum_maps(model, state, j0);
+  summary.residual_max = d0.residual;
+  if (csv) csv->row(state.t, state.q, d0);
+
+  double output_s = 0.0;
+  const auto loop_start = Clock::now();
+  for (long k = 1; k <= steps; ++k) {
+    const Status status = step(model, ws, state, options);
+    if (status != Status::Ok) {
+      summary.status = status;
+      std::ostringstream os;
+      os << "step " << k << " from t = " << state.t << " failed: " << to_string(status) << ": " << ws.message();
+      summary.message = os.str();
+      break;
+    }
+    summary.steps = k;
+    const Diagnostics d = diagnose(model, ws, state, dt);
+    summary.energy_rel_err_max = worst(summary.energy_rel_err_max, relative_change(d.energy, d0.energy));
+    summary.energy_post_rel_err_max =
+        worst(summary.energy_post_rel_err_max, relative_change(d.energy_post, d0.energy_post));
+    summary.residual_max = worst(summary.residual_max, d.residual);
+    if (summary.has_momentum) {
+      evaluate_momentum_maps(model, state, j);
+      summary.momentum_drift_max = worst(summary.momentum_drift_max, (j - j0).lpNorm<Eigen::Infinity>());
+    }
+    if (csv && (k % config.every == 0 || k == steps)) {
+      const auto out_start = Clock::now();
+      csv->row(state.t, state.q, d);
+      output_s += seconds_since(out_start);
+    }
+  }
+  const double loop_s = seconds_since(loop_start) - output_s;
+  if (csv) csv->close();
+  summary.t_final = state.t;
+  summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
+  summary.wall_s = seconds_since(start_time);
+  return summary;
+}
+
+}  // namespace nonholo::scenarios

@@ -1,0 +1,77 @@
+#pragma once
+// The one interface behind which C = mu M^-1 mu^T is factorised and solved. A
+// Factorization is built once for a fixed SymmetricPattern; factorize() and solve() then run
+// every step without allocating. Each object owns its own solver context (for CHOLMOD, one
+// cholmod_common), so use one per thread.
+#include <nonholo/sparse/patterns.hpp>
+
+#include <memory>
+#include <string>
+
+namespace nonholo::sparse {
+
+enum class FactorStatus {
+  Ok,
+  NotPositiveDefinite,  // a pivot <= 0: the one-forms are dependent (C is singular)
+  NearlySingular,       // a pivot below the tolerance: nearly dependent one-forms
+  NonFinite,            // NaN or Inf in C or in a pivot
+  OutOfMemory,          // CHOLMOD_OUT_OF_MEMORY
+  TooLarge,             // CHOLMOD_TOO_LARGE: integer overflow in the factor's size
+  InvalidInput,         // CHOLMOD_INVALID
+  NotInstalled,         // CHOLMOD_NOT_INSTALLED
+  GpuProblem,           // CHOLMOD_GPU_PROBLEM
+  Failed,               // any other failure reported by the library
+};
+const char* to_string(FactorStatus status);
+
+// Which factorisation serves C. Auto picks by structure (see resolve_backend).
+enum class Backend { Auto, Dense, Cholmod };
+const char* to_string(Backend backend);
+// "auto", "dense", "cholmod"; throws std::invalid_argument naming the valid choices.
+Backend backend_from_string(const std::string& name);
+// Largest C handled by the dense path when the choice is Auto.
+inline constexpr int kDenseMaxSize = 8;
+Backend resolve_backend(Backend requested, const SymmetricPattern& pattern);
+
+class Factorization {
+ public:
+  virtual ~Factorization() = default;
+  Factorization(const Factorization&) = delete;
+  Factorization& operator=(const Factorization&) = delete;
+
+  // Numeric factorisation of the matrix with these lower-triangle values (pattern order).
+  // Fails when a pivot, relative to its diagonal entry of C, is below min_pivot_ratio: for
+  // a Gram matrix that ratio is the squared sine of the angle between one row and the span
+  // of the rows eliminated before it, so it measures (near) dependence scale-free.
+  virtual FactorStatus factorize(const double* c_values, double min_pivot_ratio) = 0;
+  // x = C^-1 b after a successful factorize(). b and x may alias.
+  virtual FactorStatus solve(const double* b, double* x) = 0;
+
+  virtual Backend backend() const = 0;
+  int size() const { return size_; }
+  // After factorize(): smallest pivot ratio and the row of C where it occurred.
+  double min_pivot_ratio() const { return min_ratio_; }
+  int min_pivot_row() const { return min_row_; }
+  // Human-readable detail of the last failure ("" after success).
+  const char* message() const { return message_; }
+
+ protected:
+  explicit Factorization(int size) : size_(size) { message_[0] = '\0'; }
+  // Shared pivot test. pivot[k] is the k-th pivot of the factor (D_kk, or L_kk^2) and
+  // diag[k] the matching diagonal entry of C; row[k] maps k back to a row of C.
+  FactorStatus check_pivots(const double* pivot, const double* diag, const int* row,
+                            double min_pivot_ratio);
+  FactorStatus fail(FactorStatus status, const char* format, ...)
+      __attribute__((format(printf, 3, 4)));
+  void clear_message() { message_[0] = '\0'; }
+
+ private:
+  int size_;
+  double min_ratio_ = 0.0;
+  int min_row_ = -1;
+  char message_[256];
+};
+
+std::unique_ptr<Factorization> make_factorization(Backend backend, const SymmetricPattern& pattern);
+
+}  // namespace nonholo::sparse

@@ -1,0 +1,96 @@
+#include <nonholo/sparse/factorization.hpp>
+
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <stdexcept>
+
+#include "cholmod_ldlt.hpp"
+#include "dense_llt.hpp"
+
+namespace nonholo::sparse {
+
+const char* to_string(FactorStatus status) {
+  switch (status) {
+    case FactorStatus::Ok: return "ok";
+    case FactorStatus::NotPositiveDefinite: return "not positive definite";
+    case FactorStatus::NearlySingular: return "nearly singular";
+    case FactorStatus::NonFinite: return "non-finite values";
+    case FactorStatus::OutOfMemory: return "out of memory";
+    case FactorStatus::TooLarge: return "problem too large";
+    case FactorStatus::InvalidInput: return "invalid input";
+    case FactorStatus::NotInstalled: return "method not installed";
+    case FactorStatus::GpuProblem: return "GPU problem";
+    case FactorStatus::Failed: return "factorisation failed";
+  }
+  return "unknown";
+}
+
+const char* to_string(Backend backend) {
+  switch (backend) {
+    case Backend::Auto: return "auto";
+    case Backend::Dense: return "dense";
+    case Backend::Cholmod: return "cholmod";
+  }
+  return "unknown";
+}
+
+Backend backend_from_string(const std::string& name) {
+  for (Backend b : {Backend::Auto, Backend::Dense, Backend::Cholmod})
+    if (name == to_string(b)) return b;
+  throw std::invalid_argument("unknown backend '" + name + "' (valid: auto, dense, cholmod)");
+}
+
+Backend resolve_backend(Backend requested, const SymmetricPattern& pattern) {
+  if (requested != Backend::Auto) return requested;
+  return pattern.size <= kDenseMaxSize ? Backend::Dense : Backend::Cholmod;
+}
+
+FactorStatus Factorization::check_pivots(const double* pivot, const double* diag,
+                                         const int* row, double min_pivot_ratio) {
+  min_ratio_ = size_ == 0 ? 1.0 : INFINITY;
+  min_row_ = -1;
+  for (int k = 0; k < size_; ++k) {
+    if (!std::isfinite(pivot[k]) || !std::isfinite(diag[k]))
+      return fail(FactorStatus::NonFinite, "row %d of C: pivot %g, diagonal %g", row[k],
+                  pivot[k], diag[k]);
+    if (!(diag[k] > 0.0))
+      return fail(FactorStatus::NotPositiveDefinite,
+                  "row %d of C has diagonal %g: that one-form vanishes here", row[k], diag[k]);
+    const double ratio = pivot[k] / diag[k];
+    if (ratio < min_ratio_) {
+      min_ratio_ = ratio;
+      min_row_ = row[k];
+    }
+  }
+  if (!(min_ratio_ > 0.0))
+    return fail(FactorStatus::NotPositiveDefinite,
+                "pivot of row %d of C is %g times its diagonal: the one-forms are dependent",
+                min_row_, min_ratio_);
+  if (min_ratio_ < min_pivot_ratio)
+    return fail(FactorStatus::NearlySingular,
+                "pivot of row %d of C is %.3g times its diagonal (tolerance %.3g): the "
+                "one-forms are nearly dependent",
+                min_row_, min_ratio_, min_pivot_ratio);
+  clear_message();
+  return FactorStatus::Ok;
+}
+
+FactorStatus Factorization::fail(FactorStatus status, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(message_, sizeof message_, format, args);
+  va_end(args);
+  return status;
+}
+
+std::unique_ptr<Factorization> make_factorization(Backend backend, const SymmetricPattern& pattern) {
+  switch (resolve_backend(backend, pattern)) {
+    case Backend::Dense: return make_dense_llt(pattern);
+    case Backend::Cholmod: return std::make_unique<CholmodLDLT>(pattern, CholmodOrdering::Amd);
+    case Backend::Auto: break;
+  }
+  throw std::logic_error("make_factorization: unresolved backend");
+}
+
+}  // namespace nonholo::sparse

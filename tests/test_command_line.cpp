@@ -1,0 +1,172 @@
+// `nonholo run`, driven in-process: the summary line, the CSV (header, rows, every digit),
+// and a clear message plus a non-zero exit for every kind of bad input.
+#include <nonholo/rattle.hpp>
+#include <nonholo/scenarios/command_line.hpp>
+#include <nonholo/scenarios/scene.hpp>
+#include <nonholo/start.hpp>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace nonholo {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+struct Result {
+  int code;
+  std::string out, err;
+};
+
+Result run(std::vector<std::string> args) {
+  args.insert(args.begin(), "nonholo");
+  std::vector<const char*> argv;
+  for (const auto& a : args) argv.push_back(a.c_str());
+  std::ostringstream out, err;
+  const int code = scenarios::run_command_line(static_cast<int>(argv.size()), argv.data(), out, err);
+  return {code, out.str(), err.str()};
+}
+
+std::map<std::string, std::string> parse_summary(const std::string& line) {
+  std::map<std::string, std::string> kv;
+  std::istringstream is(line);
+  std::string token;
+  while (is >> token) {
+    const auto eq = token.find('=');
+    EXPECT_NE(eq, std::string::npos) << token;
+    kv[token.substr(0, eq)] = token.substr(eq + 1);
+  }
+  return kv;
+}
+
+std::string temp_path(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("nonholo_test_" + std::to_string(::getpid()) + "_" + name)).string();
+}
+
+TEST(CommandLine, SummaryLineHasTheRequiredKeys) {
+  for (const char* scene : {"particle", "sleigh", "snakeboard"}) {
+    const Result r = run({"run", scene});
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << "exactly one line";
+    const auto kv = parse_summary(r.out);
+    for (const char* key : {"scene", "steps", "wall_s", "ns_per_step", "energy_rel_err_max",
+                            "energy_post_rel_err_max", "residual_max", "backend"})
+      EXPECT_TRUE(kv.count(key)) << scene << " lacks " << key;
+    EXPECT_EQ(kv.at("scene"), scene);
+    EXPECT_EQ(kv.at("steps"), "1000");
+    EXPECT_EQ(kv.at("backend"), "dense");
+    EXPECT_LE(std::stod(kv.at("energy_post_rel_err_max")), 1e-13);
+    EXPECT_LE(std::stod(kv.at("residual_max")), 1e-14);
+  }
+  EXPECT_EQ(parse_summary(run({"run", "sleigh", "--backend", "cholmod"}).out).at("backend"), "cholmod");
+}
+
+TEST(CommandLine, CsvHoldsTheTrajectoryToTheLastDigit) {
+  const std::string path = temp_path("sleigh.csv");
+  const Result r = run({"run", "sleigh", "--dt", "0.01", "--t-end", "1", "--every", "7", "--out", path,
+                        "--set", "a=0.3", "--set", "omega0=2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(path);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "t,x,y,theta,energy,energy_post,residual");
+  std::vector<std::vector<double>> rows;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<double> row;
+    std::istringstream ls(line);
+    for (std::string cell; std::getline(ls, cell, ',');) row.push_back(std::stod(cell));
+    ASSERT_EQ(row.size(), 7u) << line;
+    rows.push_back(row);
+  }
+  // Step 0, every 7th of 100 steps, and the last one.
+  ASSERT_EQ(rows.size(), 1u + 100 / 7 + 1);
+  EXPECT_EQ(rows.front()[0], 0.0);
+  EXPECT_DOUBLE_EQ(rows[1][0], 0.07);
+
+  // The same run through the API: the last row must match bit for bit.
+  const auto& info = scenarios::find_scene("sleigh");
+  scenarios::Parameters p = info.defaults();
+  p.assign("a=0.3");
+  p.assign("omega0=2");
+  auto setup = info.build(p);
+  Workspace ws(setup.model);
+  State s = start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0);
+  for (int k = 0; k < 100; ++k) ASSERT_EQ(step(setup.model, ws, s, {0.01}), Status::Ok);
+  EXPECT_EQ(rows.back()[0], s.t);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(rows.back()[1 + i], s.q[i]) << "coordinate " << i;
+  std::remove(path.c_str());
+}
+
+TEST(CommandLine, SnakeboardCsvHeader) {
+  const std::string path = temp_path("board.csv");
+  ASSERT_EQ(run({"run", "snakeboard", "--t-end", "0.1", "--out", path}).code, 0);
+  std::ifstream in(path);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "t,x,y,theta,psi,phi,energy,energy_post,residual");
+  std::remove(path.c_str());
+}
+
+void expect_failure(const std::vector<std::string>& args, const std::string& fragment) {
+  const Result r = run(args);
+  EXPECT_NE(r.code, 0) << "accepted: " << ::testing::PrintToString(args);
+  EXPECT_THAT(r.err + r.out, HasSubstr(fragment)) << ::testing::PrintToString(args);
+}
+
+TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
+  expect_failure({"run", "sled"}, "unknown scene 'sled' (known: particle, sleigh, snakeboard)");
+  expect_failure({"run", "sleigh", "--set", "mass=2"},
+                 "unknown parameter 'mass' for scene 'sleigh' (parameters: m, I, a, v0, omega0, x0, y0, theta0)");
+  expect_failure({"run", "sleigh", "--set", "m=heavy"}, "--set m=heavy: 'heavy' is not a number");
+  expect_failure({"run", "sleigh", "--set", "m"}, "--set 'm': expected NAME=VALUE");
+  expect_failure({"run", "sleigh", "--set", "m=0"}, "sleigh: parameter m = 0 must be positive");
+  expect_failure({"run", "sleigh", "--set", "I=inf"}, "'inf' is not finite");
+  expect_failure({"run", "sleigh", "--dt", "-0.1"}, "--dt");
+  expect_failure({"run", "sleigh", "--dt", "0"}, "the step must be positive");
+  expect_failure({"run", "sleigh", "--dt", "fast"}, "--dt");
+  expect_failure({"run", "sleigh", "--t-end", "-1"}, "--t-end");
+  expect_failure({"run", "sleigh", "--every", "0"}, "--every 0: must be at least 1");
+  expect_failure({"run", "sleigh", "--backend", "lapack"}, "unknown backend 'lapack' (valid: auto, dense, cholmod)");
+  expect_failure({"run", "sleigh", "--out", "/nonexistent-dir/x.csv"}, "cannot open '/nonexistent-dir/x.csv' for writing");
+  expect_failure({"run", "sleigh", "--frobnicate"}, "frobnicate");
+  expect_failure({"run"}, "scene");
+  expect_failure({}, "subcommand");
+  expect_failure({"fly"}, "unknown command 'fly' (commands: run)");
+  // Dependent one-forms at the start: wheels on one line (r = 0, phi0 = 0).
+  expect_failure({"run", "snakeboard", "--set", "r=0", "--set", "phi0=0"}, "dependent");
+}
+
+TEST(CommandLine, FailedStepStopsTheRunKeepsTheCsvAndExitsWithTwo) {
+  // The axles reach phi = pi/2 after one step: both wheel rows then lie on one line.
+  const std::string path = temp_path("jam.csv");
+  const Result r = run({"run", "snakeboard", "--dt", "0.01", "--set", "phi0=1.5607963267948966",
+                        "--set", "phi_dot0=1", "--set", "v0=0", "--out", path});
+  EXPECT_EQ(r.code, 2) << r.out << r.err;
+  // phi lands on pi/2 to the last bit: the pivot is 0 or a few ulps (dependent or nearly).
+  EXPECT_THAT(r.err, HasSubstr("step 1 from t = 0 failed: "));
+  EXPECT_THAT(r.err, HasSubstr("dependent-one-forms: pivot of row 1 of C"));
+  EXPECT_THAT(r.out, HasSubstr("dependent-one-forms"));
+  std::ifstream in(path);
+  std::string header, row0, more;
+  std::getline(in, header);
+  std::getline(in, row0);
+  EXPECT_THAT(row0, StartsWith("0,"));
+  EXPECT_FALSE(std::getline(in, more)) << "only the initial row";
+  std::remove(path.c_str());
+}
+
+TEST(CommandLine, HelpExitsWithZero) {
+  const Result r = run({"run", "--help"});
+  EXPECT_EQ(r.code, 0);
+  EXPECT_THAT(r.out, HasSubstr("--set"));
+}
+
+}  // namespace
+}  // namespace nonholo

@@ -1,0 +1,154 @@
+// Every bad input to the model builder gets a precise exception message.
+#include <nonholo/model_builder.hpp>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+
+namespace nonholo {
+namespace {
+
+using ::testing::HasSubstr;
+
+void expect_error(const std::function<void()>& f, const std::string& fragment) {
+  try {
+    f();
+    ADD_FAILURE() << "expected an exception containing: " << fragment;
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr(fragment));
+  }
+}
+
+const OneFormValues kUnit = [](ConstVecRef, VecRef mu) { mu.setOnes(); };
+
+TEST(ModelBuilder, BuildsAValidModel) {
+  ModelBuilder b;
+  b.add_planar_body({"x", "y", "theta"}, 2.0, 0.5);
+  b.add_body({"z"}, Eigen::Matrix<double, 1, 1>(3.0));
+  b.add_one_form({0, 1, 2});
+  b.add_one_form({3});
+  b.one_form_values(kUnit);
+  const Model m = b.build();
+  EXPECT_EQ(m.num_coordinates(), 4);
+  EXPECT_EQ(m.num_bodies(), 2);
+  EXPECT_EQ(m.num_one_forms(), 2);
+  EXPECT_EQ(m.num_one_form_values(), 4);
+  EXPECT_EQ(m.coordinate_names()[3], "z");
+  EXPECT_EQ(m.body(1).offset, 3);
+  EXPECT_DOUBLE_EQ(m.inverse_mass().entry(0, 0), 0.5);
+  EXPECT_DOUBLE_EQ(m.inverse_mass().entry(2, 2), 2.0);
+  EXPECT_FALSE(m.has_applied_force());
+}
+
+TEST(ModelBuilder, RejectsBadMassBlocks) {
+  expect_error([] { ModelBuilder().add_body({"x", "y"}, Eigen::MatrixXd::Identity(3, 2)); },
+               "body 0 (x, y): mass block is 3x2, expected 2x2 (one row and column per coordinate)");
+  expect_error([] { ModelBuilder().add_body({"x", "y", "z"}, Eigen::MatrixXd::Identity(2, 2)); },
+               "mass block is 2x2, expected 3x3");
+  expect_error([] { ModelBuilder().add_body({}, Eigen::MatrixXd(0, 0)); }, "body 0 has no coordinates");
+  expect_error(
+      [] {
+        Eigen::Matrix2d m = Eigen::Matrix2d::Identity();
+        m(0, 1) = m(1, 0) = NAN;
+        ModelBuilder().add_body({"x", "y"}, m);
+      },
+      "body 0 (x, y): mass block entry (0, 1) is nan");
+  expect_error([] { ModelBuilder().add_body({"x"}, Eigen::Matrix<double, 1, 1>(INFINITY)); },
+               "entry (0, 0) is inf");
+  expect_error([] { ModelBuilder().add_body({"x"}, Eigen::Matrix<double, 1, 1>(0.0)); },
+               "mass block entry (0, 0) for x is 0; a mass or moment of inertia must be positive");
+  expect_error([] { ModelBuilder().add_body({"x"}, Eigen::Matrix<double, 1, 1>(-2.0)); },
+               "for x is -2; a mass or moment of inertia must be positive");
+  expect_error(
+      [] {
+        Eigen::Matrix2d m;
+        m << 1.0, 0.5, 0.4, 1.0;
+        ModelBuilder().add_body({"x", "y"}, m);
+      },
+      "mass block is not symmetric: M(1, 0) = 0.40000000000000002 but M(0, 1) = 0.5");
+  expect_error(
+      [] {
+        Eigen::Matrix2d m;
+        m << 1.0, 2.0, 2.0, 1.0;
+        ModelBuilder().add_body({"x", "y"}, m);
+      },
+      "mass block is not positive definite (smallest eigenvalue -1)");
+}
+
+TEST(ModelBuilder, RejectsBadPlanarBodies) {
+  expect_error([] { ModelBuilder().add_planar_body({"x", "y", "theta"}, -1.0, 1.0); },
+               "body 0 (x, y, theta): mass m = -1 must be positive and finite");
+  expect_error([] { ModelBuilder().add_planar_body({"x", "y", "theta"}, 0.0, 1.0); },
+               "mass m = 0 must be positive");
+  expect_error([] { ModelBuilder().add_planar_body({"x", "y", "theta"}, 1.0, NAN); },
+               "moment of inertia I = nan must be positive and finite");
+}
+
+TEST(ModelBuilder, RejectsBadCoordinateNames) {
+  expect_error(
+      [] {
+        ModelBuilder b;
+        b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
+        b.add_planar_body({"x", "y1", "theta1"}, 1.0, 1.0);
+      },
+      "coordinate name 'x' is used by body 0 and by body 1 (x, y1, theta1)");
+  expect_error([] { ModelBuilder().add_body({"x", "x"}, Eigen::Matrix2d::Identity()); },
+               "coordinate name 'x' appears twice");
+  expect_error([] { ModelBuilder().add_body({"x", ""}, Eigen::Matrix2d::Identity()); },
+               "coordinate 1 has an empty name");
+}
+
+TEST(ModelBuilder, RejectsBadOneFormRows) {
+  auto with_row = [](std::vector<int> cols) {
+    return [cols] {
+      ModelBuilder b;
+      b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
+      b.add_one_form({0});
+      b.add_one_form(cols);
+      b.one_form_values(kUnit);
+      b.build();
+    };
+  };
+  expect_error(with_row({}), "one-form row 1 has no columns (an empty row constrains nothing)");
+  expect_error(with_row({0, 3}),
+               "one-form row 1: column 3 is out of range (the model has 3 coordinates, columns 0 to 2)");
+  expect_error(with_row({-1}), "one-form row 1: column -1 is out of range");
+  expect_error(with_row({2, 0, 2}), "one-form row 1: column 2 (theta) appears twice");
+}
+
+TEST(ModelBuilder, RejectsIncompleteModels) {
+  expect_error([] { ModelBuilder().build(); }, "the model has no bodies");
+  expect_error(
+      [] {
+        ModelBuilder b;
+        b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
+        b.add_one_form({0, 1});
+        b.add_one_form({2});
+        b.build();
+      },
+      "the model has 2 one-form rows but no value function (call one_form_values)");
+  expect_error([] { ModelBuilder().potential([](ConstVecRef) { return 0.0; }, nullptr); },
+               "potential: give both the value and its gradient, or neither");
+  expect_error([] { ModelBuilder().one_form_values(nullptr); }, "the value function is empty");
+  expect_error(
+      [] {
+        ModelBuilder b;
+        const MomentumMap j = [](ConstVecRef, ConstVecRef p) { return p[0]; };
+        b.momentum_map("px", j);
+        b.momentum_map("px", j);
+      },
+      "momentum_map 'px' is defined twice");
+}
+
+TEST(ModelBuilder, AcceptsAModelWithoutOneForms) {
+  ModelBuilder b;
+  b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
+  const Model m = b.build();
+  EXPECT_EQ(m.num_one_forms(), 0);
+  EXPECT_EQ(m.gram().pattern().size, 0);
+}
+
+}  // namespace
+}  // namespace nonholo

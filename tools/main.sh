@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# The main job: every built-in scene with its defaults, one summary line each.
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+nonholo_build nonholo_cli
+for scene in particle sleigh snakeboard; do
+  "$NONHOLO_BUILD/nonholo" run "$scene"
+done

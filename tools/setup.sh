@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs the Debian packages nonholo needs (only those missing) and configures and builds
+# the project in ./build. Sourced by tools/main.sh and tools/test.sh.
+set -euo pipefail
+
+NONHOLO_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+NONHOLO_BUILD="${NONHOLO_BUILD:-$NONHOLO_ROOT/build}"
+
+packages=(g++ make cmake libeigen3-dev libsuitesparse-dev libgtest-dev libgmock-dev
+          libbenchmark-dev libcli11-dev)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "nonholo: installing ${missing[*]}" >&2
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y --no-install-recommends "${missing[@]}"
+fi
+
+# Builds the given targets (all when none).
+nonholo_build() {
+  cmake -S "$NONHOLO_ROOT" -B "$NONHOLO_BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  if (($#)); then
+    for target in "$@"; do cmake --build "$NONHOLO_BUILD" --target "$target" -j "$(nproc)"; done
+  else
+    cmake --build "$NONHOLO_BUILD" -j "$(nproc)"
+  fi
+}
