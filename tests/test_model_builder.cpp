@@ -7,19 +7,12 @@
 #include <cmath>
 #include <functional>
 
+#include "support/expect_error.hpp"
+
 namespace nonholo {
 namespace {
 
-using ::testing::HasSubstr;
-
-void expect_error(const std::function<void()>& f, const std::string& fragment) {
-  try {
-    f();
-    ADD_FAILURE() << "expected an exception containing: " << fragment;
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr(fragment));
-  }
-}
+using testing::expect_error;
 
 const OneFormValues kUnit = [](ConstVecRef, VecRef mu) { mu.setOnes(); };
 

@@ -11,12 +11,11 @@
 #include <cmath>
 
 #include "support/dense_reference.hpp"
+#include "support/expect_error.hpp"
 #include "support/random_model.hpp"
 
 namespace nonholo {
 namespace {
-
-using ::testing::HasSubstr;
 
 scenarios::SceneSetup build(const std::string& name, const std::vector<std::string>& assignments = {}) {
   const auto& info = scenarios::find_scene(name);
@@ -99,14 +98,7 @@ TEST(Scenes, SnakeboardControlsAreTheDocumentedTorques) {
 }
 
 TEST(Scenes, ParametersAreValidated) {
-  auto expect = [](const std::function<void()>& f, const std::string& fragment) {
-    try {
-      f();
-      ADD_FAILURE() << "no exception for " << fragment;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_THAT(e.what(), HasSubstr(fragment));
-    }
-  };
+  const auto expect = testing::expect_error<std::invalid_argument>;
   expect([] { build("sleigh", {"mass=2"}); },
          "unknown parameter 'mass' for scene 'sleigh' (parameters: m, I, a, v0, omega0, x0, y0, theta0)");
   expect([] { build("sleigh", {"m=abc"}); }, "--set m=abc: 'abc' is not a number");

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "support/dense_reference.hpp"
+#include "support/expect_error.hpp"
 #include "support/random_model.hpp"
 
 namespace nonholo {
@@ -106,14 +107,7 @@ TEST(Start, BadInputIsReported) {
   const Model model = testing::random_model(4, {3, 2, false, true});
   const int n = model.num_coordinates();
   Workspace ws(model);
-  auto expect = [](const std::function<void()>& f, const std::string& fragment) {
-    try {
-      f();
-      ADD_FAILURE() << "no exception for " << fragment;
-    } catch (const std::exception& e) {
-      EXPECT_THAT(e.what(), HasSubstr(fragment));
-    }
-  };
+  const auto expect = testing::expect_error<std::exception>;
   const Vector ok = Vector::Zero(n), short_q = Vector::Zero(n - 1);
   expect([&] { start_from_velocity(model, ws, 0.0, short_q, ok); },
          "start: expected " + std::to_string(n) + " entries in q0 (one per coordinate), got " + std::to_string(n - 1));

@@ -22,7 +22,7 @@ std::string describe_body(int index, const std::vector<std::string>& names) {
 }  // namespace
 
 int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::MatrixXd& block) {
-  const int index = static_cast<int>(bodies_.size());
+  const int index = static_cast<int>(draft_.bodies_.size());
   const int k = static_cast<int>(names.size());
   const std::string who = describe_body(index, names);
   if (k == 0) fail("body " + std::to_string(index) + " has no coordinates");
@@ -34,9 +34,9 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
   }
   for (int i = 0; i < k; ++i) {
     if (names[i].empty()) fail(who + ": coordinate " + std::to_string(i) + " has an empty name");
-    for (std::size_t b = 0; b < bodies_.size(); ++b)
-      for (int j = 0; j < bodies_[b].size; ++j)
-        if (names_[bodies_[b].offset + j] == names[i])
+    for (std::size_t b = 0; b < draft_.bodies_.size(); ++b)
+      for (int j = 0; j < draft_.bodies_[b].size; ++j)
+        if (draft_.names_[draft_.bodies_[b].offset + j] == names[i])
           fail("coordinate name '" + names[i] + "' is used by body " + std::to_string(b) +
                " and by " + who);
     for (int j = 0; j < i; ++j)
@@ -73,15 +73,15 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
     os << who << ": mass block is not positive definite (smallest eigenvalue " << smallest << ")";
     fail(os.str());
   }
-  bodies_.push_back({static_cast<int>(names_.size()), k});
-  names_.insert(names_.end(), names.begin(), names.end());
+  draft_.bodies_.push_back({static_cast<int>(draft_.names_.size()), k});
+  draft_.names_.insert(draft_.names_.end(), names.begin(), names.end());
   blocks_.push_back(symmetric);
   return index;
 }
 
 int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, double mass, double inertia) {
   const std::vector<std::string> list(names.begin(), names.end());
-  const std::string who = describe_body(static_cast<int>(bodies_.size()), list);
+  const std::string who = describe_body(static_cast<int>(draft_.bodies_.size()), list);
   auto check = [&](const char* what, double value) {
     if (!(value > 0.0) || !std::isfinite(value)) {
       std::ostringstream os;
@@ -101,44 +101,43 @@ int ModelBuilder::add_one_form(const std::vector<int>& columns) {
 
 ModelBuilder& ModelBuilder::one_form_values(OneFormValues values) {
   if (!values) fail("one_form_values: the value function is empty");
-  values_ = std::move(values);
+  draft_.values_ = std::move(values);
   return *this;
 }
 
 ModelBuilder& ModelBuilder::one_form_bias(OneFormBias bias) {
-  bias_ = std::move(bias);
+  draft_.bias_ = std::move(bias);
   return *this;
 }
 
 ModelBuilder& ModelBuilder::potential(Potential value, PotentialGradient gradient) {
   if (static_cast<bool>(value) != static_cast<bool>(gradient))
     fail("potential: give both the value and its gradient, or neither");
-  potential_ = std::move(value);
-  gradient_ = std::move(gradient);
+  draft_.potential_ = std::move(value);
+  draft_.gradient_ = std::move(gradient);
   return *this;
 }
 
 ModelBuilder& ModelBuilder::external_force(ExternalForce force) {
-  force_ = std::move(force);
+  draft_.force_ = std::move(force);
   return *this;
 }
 
 ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap map) {
   if (name.empty()) fail("momentum_map: the name is empty");
   if (!map) fail("momentum_map '" + name + "': the function is empty");
-  for (const auto& existing : momentum_maps_)
+  for (const auto& existing : draft_.momentum_maps_)
     if (existing.name == name) fail("momentum_map '" + name + "' is defined twice");
-  momentum_maps_.push_back({name, std::move(map)});
+  draft_.momentum_maps_.push_back({name, std::move(map)});
   return *this;
 }
 
 Model ModelBuilder::build() const {
-  if (bodies_.empty()) fail("the model has no bodies");
-  const int n = static_cast<int>(names_.size());
+  if (draft_.bodies_.empty()) fail("the model has no bodies");
+  const int n = static_cast<int>(draft_.names_.size());
+  const auto& names = draft_.names_;
 
-  Model model;
-  model.bodies_ = bodies_;
-  model.names_ = names_;
+  Model model = draft_;
   for (const auto& block : blocks_) model.mass_.add_block(block);
   model.inverse_mass_ = model.mass_.inverse();
 
@@ -155,22 +154,15 @@ Model ModelBuilder::build() const {
            << " coordinates, columns 0 to " << n - 1 << ")";
         fail(os.str());
       }
-      if (seen[c]++) fail(row + ": column " + std::to_string(c) + " (" + names_[c] + ") appears twice");
+      if (seen[c]++) fail(row + ": column " + std::to_string(c) + " (" + names[c] + ") appears twice");
       model.pattern_.col_idx.push_back(c);
     }
     model.pattern_.row_ptr.push_back(model.pattern_.nnz());
   }
-  if (!rows_.empty() && !values_)
+  if (!rows_.empty() && !model.values_)
     fail("the model has " + std::to_string(rows_.size()) +
          " one-form rows but no value function (call one_form_values)");
   model.gram_ = sparse::GramAssembler(model.pattern_, model.inverse_mass_);
-
-  model.values_ = values_;
-  model.bias_ = bias_;
-  model.potential_ = potential_;
-  model.gradient_ = gradient_;
-  model.force_ = force_;
-  model.momentum_maps_ = momentum_maps_;
   return model;
 }
 

@@ -1,8 +1,6 @@
 #include <nonholo/workspace.hpp>
 
 #include <cmath>
-#include <cstdarg>
-#include <cstdio>
 #include <cstring>
 
 namespace nonholo {
@@ -20,7 +18,6 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   lambda.setZero(m);
   scratch_m.setZero(m);
   if (m > 0) factor_ = sparse::make_factorization(options.backend, model.gram().pattern());
-  message_[0] = '\0';
 }
 
 sparse::Backend Workspace::backend() const {
@@ -74,14 +71,6 @@ Status Workspace::solve(const double* b, double* x) {
   if (factor_->solve(b, x) != sparse::FactorStatus::Ok)
     return fail(Status::LinearSolverFailure, "%s", factor_->message());
   return Status::Ok;
-}
-
-Status Workspace::fail(Status status, const char* format, ...) {
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(message_, sizeof message_, format, args);
-  va_end(args);
-  return status;
 }
 
 }  // namespace nonholo

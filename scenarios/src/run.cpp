@@ -13,6 +13,7 @@
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace nonholo::scenarios {
 namespace {
@@ -35,7 +36,9 @@ double relative_change(double value, double reference) {
 // CSV rows with shortest round-trip formatting, so no digit of the state is lost.
 class CsvWriter {
  public:
-  CsvWriter(const std::string& path, const std::vector<std::string>& coordinates) : path_(path) {
+  // A double takes at most 24 characters with to_chars; 32 leaves room for the comma.
+  CsvWriter(const std::string& path, const std::vector<std::string>& coordinates)
+      : path_(path), buffer_(32 * (coordinates.size() + 4)) {
     file_ = std::fopen(path.c_str(), "w");
     if (!file_)
       throw std::invalid_argument("cannot open '" + path + "' for writing: " + std::strerror(errno));
@@ -48,14 +51,14 @@ class CsvWriter {
     if (file_) std::fclose(file_);
   }
   void row(double t, const Vector& q, const Diagnostics& d) {
-    char* p = buffer_;
+    char* p = buffer_.data();
     put(p, t);
     for (Eigen::Index i = 0; i < q.size(); ++i) put(p, q[i]);
     put(p, d.energy);
     put(p, d.energy_post);
     put(p, d.residual);
     p[-1] = '\n';
-    std::fwrite(buffer_, 1, static_cast<std::size_t>(p - buffer_), file_);
+    std::fwrite(buffer_.data(), 1, static_cast<std::size_t>(p - buffer_.data()), file_);
   }
   // Flushes and reports a write error (disk full, ...) as an exception.
   void close() {
@@ -64,7 +67,6 @@ class CsvWriter {
     file_ = nullptr;
     if (bad || rc != 0) throw std::runtime_error("error writing '" + path_ + "': " + std::strerror(errno));
   }
-  bool fits(Eigen::Index n) const { return (n + 4) * 32 < static_cast<Eigen::Index>(sizeof buffer_); }
 
  private:
   static void put(char*& p, double v) {
@@ -73,7 +75,7 @@ class CsvWriter {
   }
   std::string path_;
   std::FILE* file_ = nullptr;
-  char buffer_[1 << 16];
+  std::vector<char> buffer_;
 };
 
 }  // namespace
@@ -117,8 +119,6 @@ RunSummary run_scene(const RunConfig& config) {
   std::unique_ptr<CsvWriter> csv;
   if (!config.csv_path.empty()) {
     csv = std::make_unique<CsvWriter>(config.csv_path, model.coordinate_names());
-    if (!csv->fits(model.num_coordinates()))
-      throw std::invalid_argument("too many coordinates for one CSV row buffer");
   }
 
   RunSummary summary;

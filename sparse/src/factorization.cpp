@@ -1,8 +1,6 @@
 #include <nonholo/sparse/factorization.hpp>
 
 #include <cmath>
-#include <cstdarg>
-#include <cstdio>
 #include <stdexcept>
 
 #include "cholmod_ldlt.hpp"
@@ -74,14 +72,6 @@ FactorStatus Factorization::check_pivots(const double* pivot, const double* diag
                 min_row_, min_ratio_, min_pivot_ratio);
   clear_message();
   return FactorStatus::Ok;
-}
-
-FactorStatus Factorization::fail(FactorStatus status, const char* format, ...) {
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(message_, sizeof message_, format, args);
-  va_end(args);
-  return status;
 }
 
 std::unique_ptr<Factorization> make_factorization(Backend backend, const SymmetricPattern& pattern) {

@@ -35,16 +35,11 @@ class ModelBuilder {
   Model build() const;
 
  private:
-  std::vector<std::string> names_;
-  std::vector<Body> bodies_;
+  // The model being built: bodies, names and callbacks go straight in; build() validates
+  // the rows and fills the derived parts (metric, inverse, pattern, index map of C).
+  Model draft_;
   std::vector<Eigen::MatrixXd> blocks_;
   std::vector<std::vector<int>> rows_;
-  OneFormValues values_;
-  OneFormBias bias_;
-  Potential potential_;
-  PotentialGradient gradient_;
-  ExternalForce force_;
-  std::vector<NamedMomentumMap> momentum_maps_;
 };
 
 }  // namespace nonholo

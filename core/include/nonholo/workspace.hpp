@@ -4,6 +4,7 @@
 // the Model must outlive it. The buffers are scratch owned by the integrators.
 #include <nonholo/model.hpp>
 #include <nonholo/sparse/factorization.hpp>
+#include <nonholo/sparse/message.hpp>
 #include <nonholo/status.hpp>
 
 #include <memory>
@@ -23,7 +24,7 @@ class Workspace {
   sparse::Backend backend() const;
   const char* backend_name() const;
   // Why the last failed call failed ("" if it did not).
-  const char* message() const { return message_; }
+  const char* message() const { return message_.c_str(); }
 
   // --- used by the integrators (nonholo/rattle.hpp, start.hpp, dynamics.hpp) --------------
   // Evaluates mu at q into mu_values unless they already hold mu(q) (mu is a pure function
@@ -35,8 +36,15 @@ class Workspace {
   Status factorize(double min_pivot_ratio);
   // lambda = C^-1 rhs after factorize().
   Status solve(const double* rhs, double* lambda);
-  Status fail(Status status, const char* format, ...) __attribute__((format(printf, 3, 4)));
-  void clear_message() { message_[0] = '\0'; }
+  // Records the message and returns status: `return ws.fail(Status::..., "...", ...);`
+  Status fail(Status status, const char* format, ...) __attribute__((format(printf, 3, 4))) {
+    va_list args;
+    va_start(args, format);
+    message_.vset(format, args);
+    va_end(args);
+    return status;
+  }
+  void clear_message() { message_.clear(); }
 
   // Scratch vectors of size n (coordinates) ...
   Vector q_next, p_half, p_hat, p_next, velocity, applied, force_next, scratch_n, scratch_n2;
@@ -48,7 +56,7 @@ class Workspace {
   std::unique_ptr<sparse::Factorization> factor_;
   Vector mu_q_;  // the q whose one-form values mu_values holds, when mu_valid_
   bool mu_valid_ = false;
-  char message_[320];
+  sparse::Message message_;
 };
 
 }  // namespace nonholo

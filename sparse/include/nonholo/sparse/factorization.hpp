@@ -3,6 +3,7 @@
 // Factorization is built once for a fixed SymmetricPattern; factorize() and solve() then run
 // every step without allocating. Each object owns its own solver context (for CHOLMOD, one
 // cholmod_common), so use one per thread.
+#include <nonholo/sparse/message.hpp>
 #include <nonholo/sparse/patterns.hpp>
 
 #include <memory>
@@ -53,23 +54,29 @@ class Factorization {
   double min_pivot_ratio() const { return min_ratio_; }
   int min_pivot_row() const { return min_row_; }
   // Human-readable detail of the last failure ("" after success).
-  const char* message() const { return message_; }
+  const char* message() const { return message_.c_str(); }
 
  protected:
-  explicit Factorization(int size) : size_(size) { message_[0] = '\0'; }
+  explicit Factorization(int size) : size_(size) {}
   // Shared pivot test. pivot[k] is the k-th pivot of the factor (D_kk, or L_kk^2) and
   // diag[k] the matching diagonal entry of C; row[k] maps k back to a row of C.
   FactorStatus check_pivots(const double* pivot, const double* diag, const int* row,
                             double min_pivot_ratio);
-  FactorStatus fail(FactorStatus status, const char* format, ...)
-      __attribute__((format(printf, 3, 4)));
-  void clear_message() { message_[0] = '\0'; }
+  // Records the message and returns status: `return fail(FactorStatus::..., "...", ...);`
+  FactorStatus fail(FactorStatus status, const char* format, ...) __attribute__((format(printf, 3, 4))) {
+    va_list args;
+    va_start(args, format);
+    message_.vset(format, args);
+    va_end(args);
+    return status;
+  }
+  void clear_message() { message_.clear(); }
 
  private:
   int size_;
   double min_ratio_ = 0.0;
   int min_row_ = -1;
-  char message_[256];
+  Message message_;
 };
 
 std::unique_ptr<Factorization> make_factorization(Backend backend, const SymmetricPattern& pattern);
