@@ -30,8 +30,6 @@ class Workspace {
   // Evaluates mu at q into mu_values unless they already hold mu(q) (mu is a pure function
   // of q, so the cache is keyed by the bits of q). Returns NonFiniteOneForms on NaN/Inf.
   Status evaluate_one_forms(ConstVecRef q);
-  // Marks mu_values as not belonging to any configuration.
-  void forget_one_forms() { mu_valid_ = false; }
   // Assembles C from mu_values and factorises it.
   Status factorize(double min_pivot_ratio);
   // lambda = C^-1 rhs after factorize().

@@ -23,7 +23,6 @@ class BlockDiagonal {
   double entry(int i, int j) const;
   // True when every block is diagonal: products then reduce to a scaled copy.
   bool is_diagonal() const { return diagonal_; }
-  const Eigen::VectorXd& diagonal() const { return diag_; }
 
   // y = B x (x and y must not alias).
   void multiply(const double* x, double* y) const;
