@@ -40,8 +40,8 @@ void run_steps(benchmark::State& bench, const std::string& scene, sparse::Backen
 void Step_Sleigh(benchmark::State& s) { run_steps(s, "sleigh", sparse::Backend::Auto, false); }
 void Step_Particle(benchmark::State& s) { run_steps(s, "particle", sparse::Backend::Auto, false); }
 void Step_Snakeboard(benchmark::State& s) { run_steps(s, "snakeboard", sparse::Backend::Auto, false); }
-void Step_SleighCholmod(benchmark::State& s) { run_steps(s, "sleigh", sparse::Backend::Cholmod, false); }
-void Step_SnakeboardCholmod(benchmark::State& s) { run_steps(s, "snakeboard", sparse::Backend::Cholmod, false); }
+void Step_SleighCholmod(benchmark::State& s) { run_steps(s, "sleigh", sparse::Backend::CholmodAmd, false); }
+void Step_SnakeboardCholmod(benchmark::State& s) { run_steps(s, "snakeboard", sparse::Backend::CholmodAmd, false); }
 void StepAndDiagnose_Sleigh(benchmark::State& s) { run_steps(s, "sleigh", sparse::Backend::Auto, true); }
 
 // The floor: the same scheme for the sleigh written out with scalars.

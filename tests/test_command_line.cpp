@@ -65,7 +65,48 @@ TEST(CommandLine, SummaryLineHasTheRequiredKeys) {
     EXPECT_LE(std::stod(kv.at("energy_post_rel_err_max")), 1e-13);
     EXPECT_LE(std::stod(kv.at("residual_max")), 1e-14);
   }
-  EXPECT_EQ(parse_summary(run({"run", "sleigh", "--backend", "cholmod"}).out).at("backend"), "cholmod");
+  EXPECT_EQ(parse_summary(run({"run", "sleigh", "--backend", "cholmod-amd"}).out).at("backend"), "cholmod-amd");
+}
+
+TEST(CommandLine, ChainSummaryReportsBodiesGapHitchAndBackend) {
+  const Result holo = run({"run", "sleigh_chain", "--set", "bodies=20", "--t-end", "1"});
+  ASSERT_EQ(holo.code, 0) << holo.err;
+  auto kv = parse_summary(holo.out);
+  for (const char* key : {"bodies", "ns_per_body_step", "gap_max", "hitch", "restart", "backend"})
+    EXPECT_TRUE(kv.count(key)) << "lacks " << key;
+  EXPECT_EQ(kv.at("bodies"), "20");
+  EXPECT_EQ(kv.at("hitch"), "holonomic");
+  EXPECT_EQ(kv.at("restart"), "0");
+  EXPECT_EQ(kv.at("backend"), "cholmod-natural");
+  EXPECT_LE(std::stod(kv.at("gap_max")), 1e-10);
+  EXPECT_NEAR(std::stod(kv.at("ns_per_body_step")) * 20, std::stod(kv.at("ns_per_step")),
+              1e-3 * std::stod(kv.at("ns_per_step")));
+
+  const Result loose = run({"run", "sleigh_chain", "--set", "bodies=20", "--t-end", "1", "--hitch",
+                            "oneform", "--backend", "cholmod-amd", "--restart", "25"});
+  ASSERT_EQ(loose.code, 0) << loose.err;
+  kv = parse_summary(loose.out);
+  EXPECT_EQ(kv.at("hitch"), "oneform");
+  EXPECT_EQ(kv.at("restart"), "25");
+  EXPECT_EQ(kv.at("backend"), "cholmod-amd");
+  EXPECT_GT(std::stod(kv.at("gap_max")), 1e-10) << "one-form hitches drift";
+
+  kv = parse_summary(run({"run", "sleigh_chain", "--set", "hitched=0", "--set", "k=1", "--t-end", "1"}).out);
+  EXPECT_EQ(kv.at("backend"), "block-diagonal");
+  EXPECT_EQ(kv.at("gap_max"), "0");
+  kv = parse_summary(run({"run", "wheeled_train", "--set", "bodies=30", "--t-end", "1"}).out);
+  EXPECT_EQ(kv.at("restart"), "10") << "the train's default";
+  EXPECT_EQ(kv.at("status"), "ok");
+}
+
+TEST(CommandLine, ChainCsvNamesEveryBodysCoordinates) {
+  const std::string path = temp_path("chain.csv");
+  ASSERT_EQ(run({"run", "sleigh_chain", "--set", "bodies=3", "--t-end", "0.05", "--out", path}).code, 0);
+  std::ifstream in(path);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "t,x0,y0,theta0,x1,y1,theta1,x2,y2,theta2,energy,energy_post,residual");
+  std::remove(path.c_str());
 }
 
 TEST(CommandLine, CsvHoldsTheTrajectoryToTheLastDigit) {
@@ -121,7 +162,7 @@ void expect_failure(const std::vector<std::string>& args, const std::string& fra
 }
 
 TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
-  expect_failure({"run", "sled"}, "unknown scene 'sled' (known: particle, sleigh, snakeboard)");
+  expect_failure({"run", "sled"}, "unknown scene 'sled' (known: particle, sleigh, snakeboard, sleigh_chain, wheeled_train)");
   expect_failure({"run", "sleigh", "--set", "mass=2"},
                  "unknown parameter 'mass' for scene 'sleigh' (parameters: m, I, a, v0, omega0, x0, y0, theta0)");
   expect_failure({"run", "sleigh", "--set", "m=heavy"}, "--set m=heavy: 'heavy' is not a number");
@@ -133,12 +174,17 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"run", "sleigh", "--dt", "fast"}, "--dt");
   expect_failure({"run", "sleigh", "--t-end", "-1"}, "--t-end");
   expect_failure({"run", "sleigh", "--every", "0"}, "--every 0: must be at least 1");
-  expect_failure({"run", "sleigh", "--backend", "lapack"}, "unknown backend 'lapack' (valid: auto, dense, cholmod)");
+  expect_failure({"run", "sleigh", "--backend", "lapack"}, "unknown backend 'lapack' (valid: auto, block-diagonal, dense, cholmod-natural, cholmod-amd)");
   expect_failure({"run", "sleigh", "--out", "/nonexistent-dir/x.csv"}, "cannot open '/nonexistent-dir/x.csv' for writing");
   expect_failure({"run", "sleigh", "--frobnicate"}, "frobnicate");
   expect_failure({"run"}, "scene");
   expect_failure({}, "subcommand");
   expect_failure({"fly"}, "unknown command 'fly' (commands: run)");
+  expect_failure({"run", "sleigh_chain", "--hitch", "rigid"}, "unknown hitch mode 'rigid' (valid: oneform, holonomic)");
+  expect_failure({"run", "sleigh_chain", "--restart", "-1"}, "--restart -1: must be 0 (never) or positive");
+  expect_failure({"run", "sleigh_chain", "--set", "bodies=0"}, "parameter bodies = 0 must be a whole number");
+  expect_failure({"run", "sleigh_chain", "--backend", "block-diagonal"},
+                 "backend block-diagonal: C has a coupled block of 28 one-forms");
   // Dependent one-forms at the start: wheels on one line (r = 0, phi0 = 0).
   expect_failure({"run", "snakeboard", "--set", "r=0", "--set", "phi0=0"}, "dependent");
 }

@@ -39,7 +39,7 @@ TEST(Rattle, MatchesDenseReferenceWithForcesOnEveryBackend) {
     o.applied_force = seed % 2 == 0;
     const Model model = testing::random_model(seed, o);
     const int n = model.num_coordinates();
-    for (Backend backend : {Backend::Dense, Backend::Cholmod}) {
+    for (Backend backend : {Backend::Dense, Backend::CholmodAmd}) {
       Workspace ws(model, {backend});
       State s = start_from_velocity(model, ws, 0.3, testing::random_vector(seed, n, 0.5),
                                     testing::random_vector(seed + 7, n));
@@ -109,7 +109,7 @@ Model fragile_model() {
 
 TEST(Rattle, FailedStepsLeaveTheStateUnchanged) {
   const Model model = fragile_model();
-  for (Backend backend : {Backend::Dense, Backend::Cholmod}) {
+  for (Backend backend : {Backend::Dense, Backend::CholmodAmd}) {
     Workspace ws(model, {backend});
     // Allowed motion: xdot only (thetadot = 0 and ydot + thetadot = 0).
     State s = start_from_velocity(model, ws, 0.0, Vector::Zero(3), Eigen::Vector3d(1.0, 0.0, 0.0));

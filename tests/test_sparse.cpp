@@ -10,7 +10,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <memory>
 #include <random>
+#include <vector>
 
 #include "support/dense_reference.hpp"
 #include "support/random_model.hpp"
@@ -121,35 +123,88 @@ RandomSpd random_spd(std::uint32_t seed, int m) {
   return out;
 }
 
-TEST(Factorization, DenseAndCholmodAgreeOnRandomSpdMatrices) {
+// Every backend that accepts the pattern (block-diagonal only when its blocks are small).
+std::vector<std::unique_ptr<sparse::Factorization>> every_backend(const sparse::SymmetricPattern& pattern) {
+  std::vector<std::unique_ptr<sparse::Factorization>> out;
+  for (Backend b : {Backend::BlockDiagonal, Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd}) {
+    try {
+      out.push_back(sparse::make_factorization(b, pattern));
+      EXPECT_EQ(out.back()->backend(), b);
+    } catch (const std::invalid_argument& e) {
+      EXPECT_EQ(b, Backend::BlockDiagonal) << e.what();  // the only one that may refuse here
+    }
+  }
+  return out;
+}
+
+void expect_all_solve(const sparse::SymmetricPattern& pattern, const Vector& values,
+                      const Eigen::MatrixXd& dense, std::uint32_t seed, std::size_t min_backends) {
+  auto factors = every_backend(pattern);
+  ASSERT_GE(factors.size(), min_backends);
+  const int m = pattern.size;
+  const Vector b = testing::random_vector(seed, m);
+  const Vector exact = dense.fullPivLu().solve(b);
+  double ratio = -1.0;
+  for (auto& f : factors) {
+    const char* name = sparse::to_string(f->backend());
+    ASSERT_EQ(f->factorize(values.data(), 1e-12), FactorStatus::Ok) << name << ": " << f->message();
+    EXPECT_GT(f->min_pivot_ratio(), 0.0);
+    EXPECT_LE(f->min_pivot_ratio(), 1.0 + 1e-15) << "a ratio in (0, 1]";
+    if (ratio < 0.0) ratio = f->min_pivot_ratio();
+    Vector x(m);
+    f->solve(b.data(), x.data());
+    EXPECT_LE((x - exact).norm(), 1e-12 * exact.norm()) << name << ", m = " << m << " seed " << seed;
+    Vector inplace = b;  // b and x alias
+    f->solve(inplace.data(), inplace.data());
+    EXPECT_LE((inplace - x).norm(), 1e-15 * x.norm()) << name;
+  }
+}
+
+TEST(Factorization, EveryBackendSolvesRandomSpdMatrices) {
   for (int m : {1, 2, 3, 4, 5, 8, 13, 30}) {
     for (std::uint32_t seed = 1; seed <= 5; ++seed) {
       const RandomSpd c = random_spd(seed * 97 + static_cast<std::uint32_t>(m), m);
-      auto dense = sparse::make_factorization(Backend::Dense, c.pattern);
-      auto chol = sparse::make_factorization(Backend::Cholmod, c.pattern);
-      ASSERT_EQ(dense->backend(), Backend::Dense);
-      ASSERT_EQ(chol->backend(), Backend::Cholmod);
-      ASSERT_EQ(dense->factorize(c.values.data(), 1e-12), FactorStatus::Ok) << dense->message();
-      ASSERT_EQ(chol->factorize(c.values.data(), 1e-12), FactorStatus::Ok) << chol->message();
-      EXPECT_NEAR(dense->min_pivot_ratio(), chol->min_pivot_ratio(), 1.0)
-          << "both are ratios in (0, 1]";
-      const Vector b = testing::random_vector(seed, m);
-      Vector xd(m), xc(m);
-      dense->solve(b.data(), xd.data());
-      chol->solve(b.data(), xc.data());
-      const Vector exact = c.dense.fullPivLu().solve(b);
-      EXPECT_LE((xd - xc).norm(), 1e-12 * xd.norm()) << "m = " << m << " seed " << seed;
-      EXPECT_LE((xd - exact).norm(), 1e-12 * exact.norm());
-      // In-place solve (b and x alias).
-      Vector inplace = b;
-      chol->solve(inplace.data(), inplace.data());
-      EXPECT_LE((inplace - xc).norm(), 1e-15 * xc.norm());
+      expect_all_solve(c.pattern, c.values, c.dense, seed, 3);
     }
   }
 }
 
-TEST(Factorization, DenseAndCholmodWorkspacesGiveTheSameTrajectory) {
-  // Whole steps on random models with forces: the two paths differ only in how C is
+// Block-diagonal C with interleaved blocks: rows {0, 3, 5}, {1, 4}, {2}, {6, 7}, plus an
+// all-scalar (diagonal) C, against a dense solve; every backend must agree.
+TEST(Factorization, BlockDiagonalPathHandlesInterleavedAndScalarBlocks) {
+  const std::vector<std::vector<int>> blocks{{0, 3, 5}, {1, 4}, {2}, {6, 7}};
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(8, 8);
+  for (const auto& rows : blocks) {
+    const int k = static_cast<int>(rows.size());
+    Eigen::MatrixXd g(k, k + 2);
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < k + 2; ++j) g(i, j) = u(rng);
+    const Eigen::MatrixXd block = g * g.transpose();
+    for (int i = 0; i < k; ++i)
+      for (int j = 0; j < k; ++j) dense(rows[i], rows[j]) = block(i, j);
+  }
+  for (const Eigen::MatrixXd& c : {dense, Eigen::MatrixXd(Eigen::VectorXd::LinSpaced(8, 1.0, 8.0).asDiagonal())}) {
+    sparse::SymmetricPattern pattern;
+    pattern.size = 8;
+    Vector values(0);
+    for (int j = 0; j < 8; ++j) {
+      for (int i = j; i < 8; ++i)
+        if (i == j || c(i, j) != 0.0) {
+          pattern.row_idx.push_back(i);
+          values.conservativeResize(values.size() + 1);
+          values[values.size() - 1] = c(i, j);
+        }
+      pattern.col_ptr.push_back(pattern.nnz());
+    }
+    ASSERT_EQ(sparse::resolve_backend(Backend::Auto, pattern), Backend::BlockDiagonal);
+    expect_all_solve(pattern, values, c, 3, 4);
+  }
+}
+
+TEST(Factorization, EveryBackendGivesTheSameTrajectory) {
+  // Whole steps on random models with forces: the paths differ only in how C is
   // factorised, so they must agree to round-off.
   for (std::uint32_t seed = 1; seed <= 6; ++seed) {
     testing::RandomModelOptions o;
@@ -158,25 +213,26 @@ TEST(Factorization, DenseAndCholmodWorkspacesGiveTheSameTrajectory) {
     o.applied_force = true;
     const Model model = testing::random_model(seed * 31, o);
     const int n = model.num_coordinates();
-    Workspace dense(model, {Backend::Dense}), chol(model, {Backend::Cholmod});
-    ASSERT_STREQ(dense.backend_name(), "dense");
-    ASSERT_STREQ(chol.backend_name(), "cholmod");
     const Vector q0 = testing::random_vector(seed, n, 0.5), v0 = testing::random_vector(seed + 1, n);
+    Workspace dense(model, {Backend::Dense});
+    ASSERT_STREQ(dense.backend_name(), "dense");
     State a = start_from_velocity(model, dense, 0.0, q0, v0);
-    State b = start_from_velocity(model, chol, 0.0, q0, v0);
-    for (int k = 0; k < 100; ++k) {
-      ASSERT_EQ(step(model, dense, a, {0.01}), Status::Ok) << dense.message();
-      ASSERT_EQ(step(model, chol, b, {0.01}), Status::Ok) << chol.message();
+    for (int k = 0; k < 100; ++k) ASSERT_EQ(step(model, dense, a, {0.01}), Status::Ok) << dense.message();
+    for (Backend backend : {Backend::CholmodNatural, Backend::CholmodAmd}) {
+      Workspace ws(model, {backend});
+      ASSERT_STREQ(ws.backend_name(), sparse::to_string(backend));
+      State b = start_from_velocity(model, ws, 0.0, q0, v0);
+      for (int k = 0; k < 100; ++k) ASSERT_EQ(step(model, ws, b, {0.01}), Status::Ok) << ws.message();
+      EXPECT_LE((a.q - b.q).norm(), 1e-12 * a.q.norm()) << "seed " << seed << " " << ws.backend_name();
+      EXPECT_LE((a.p - b.p).norm(), 1e-12 * a.p.norm()) << "seed " << seed << " " << ws.backend_name();
+      EXPECT_LE((a.lambda - b.lambda).norm(), 1e-12 * a.lambda.norm()) << "seed " << seed;
     }
-    EXPECT_LE((a.q - b.q).norm(), 1e-12 * a.q.norm()) << "seed " << seed;
-    EXPECT_LE((a.p - b.p).norm(), 1e-12 * a.p.norm()) << "seed " << seed;
-    EXPECT_LE((a.lambda - b.lambda).norm(), 1e-12 * a.lambda.norm()) << "seed " << seed;
   }
 }
 
 TEST(Factorization, RefactorisationReusesTheAnalysis) {
   const RandomSpd c = random_spd(7, 12);
-  auto chol = sparse::make_factorization(Backend::Cholmod, c.pattern);
+  auto chol = sparse::make_factorization(Backend::CholmodAmd, c.pattern);
   for (double scale : {1.0, 3.0, 0.25}) {
     const Vector values = scale * c.values;
     ASSERT_EQ(chol->factorize(values.data(), 1e-12), FactorStatus::Ok);
@@ -197,7 +253,7 @@ sparse::SymmetricPattern two_by_two() {
 }
 
 TEST(Factorization, PivotRatioIsTheSquaredSineBetweenOneForms) {
-  for (Backend backend : {Backend::Dense, Backend::Cholmod}) {
+  for (Backend backend : {Backend::BlockDiagonal, Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd}) {
     auto f = sparse::make_factorization(backend, two_by_two());
     const double angle = 1e-3;
     const double values[] = {1.0, std::cos(angle), 1.0};
@@ -210,7 +266,7 @@ TEST(Factorization, PivotRatioIsTheSquaredSineBetweenOneForms) {
 }
 
 TEST(Factorization, DependentOneFormsAreReported) {
-  for (Backend backend : {Backend::Dense, Backend::Cholmod}) {
+  for (Backend backend : {Backend::BlockDiagonal, Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd}) {
     auto f = sparse::make_factorization(backend, two_by_two());
     const double values[] = {1.0, 1.0, 1.0};  // identical rows
     const FactorStatus s = f->factorize(values, 1e-12);
@@ -228,18 +284,19 @@ TEST(Factorization, DependentOneFormsAreReported) {
 }
 
 TEST(Factorization, BackendNamesAndAutomaticChoice) {
-  EXPECT_EQ(sparse::backend_from_string("cholmod"), Backend::Cholmod);
+  EXPECT_EQ(sparse::backend_from_string("cholmod-amd"), Backend::CholmodAmd);
+  EXPECT_EQ(sparse::backend_from_string("cholmod-natural"), Backend::CholmodNatural);
+  EXPECT_EQ(sparse::backend_from_string("block-diagonal"), Backend::BlockDiagonal);
   EXPECT_EQ(sparse::backend_from_string("dense"), Backend::Dense);
   EXPECT_EQ(sparse::backend_from_string("auto"), Backend::Auto);
   try {
     sparse::backend_from_string("lapack");
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("unknown backend 'lapack' (valid: auto, dense, cholmod)"));
+    EXPECT_THAT(e.what(), HasSubstr(
+        "unknown backend 'lapack' (valid: auto, block-diagonal, dense, cholmod-natural, cholmod-amd)"));
   }
-  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, random_spd(1, 8).pattern), Backend::Dense);
-  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, random_spd(1, 9).pattern), Backend::Cholmod);
-  EXPECT_EQ(sparse::resolve_backend(Backend::Cholmod, random_spd(1, 2).pattern), Backend::Cholmod);
+  EXPECT_EQ(sparse::resolve_backend(Backend::CholmodAmd, random_spd(1, 2).pattern), Backend::CholmodAmd);
 }
 
 }  // namespace

@@ -23,6 +23,10 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h
     d.energy_post += 0.5 * (model.potential(ws.scratch_n2) + v_now);
   }
 
+  if (model.num_holonomic() > 0) {
+    model.gap(s.q, ws.gap);
+    d.gap = ws.gap.lpNorm<Eigen::Infinity>();
+  }
   if (model.num_one_forms() > 0) {
     if (ws.evaluate_one_forms(s.q) != Status::Ok) {
       d.residual = std::numeric_limits<double>::quiet_NaN();
@@ -30,7 +34,8 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h
     }
     model.inverse_mass().multiply(s.p.data(), ws.scratch_n.data());
     model.mu_times(ws.mu_values.data(), ws.scratch_n.data(), ws.scratch_m.data());
-    d.residual = ws.scratch_m.lpNorm<Eigen::Infinity>();
+    d.residual = std::isfinite(ws.scratch_m.sum()) ? ws.scratch_m.lpNorm<Eigen::Infinity>()
+                                                   : std::numeric_limits<double>::quiet_NaN();
   }
   return d;
 }

@@ -41,8 +41,7 @@ Status project_momentum(const Model& model, Workspace& ws, ConstVecRef q, ConstV
     p_out = p;
     return Status::Ok;
   }
-  Status status = ws.evaluate_one_forms(q);
-  if (status == Status::Ok) status = ws.factorize(min_pivot_ratio);
+  Status status = ws.factorize_at(q, min_pivot_ratio);
   if (status != Status::Ok) return status;
   model.inverse_mass().multiply(p.data(), ws.velocity.data());
   model.mu_times(ws.mu_values.data(), ws.velocity.data(), ws.rhs.data());
@@ -55,8 +54,7 @@ Status project_momentum(const Model& model, Workspace& ws, ConstVecRef q, ConstV
 Status constraint_multiplier(const Model& model, Workspace& ws, double t, ConstVecRef q,
                              ConstVecRef qdot, VecRef lambda, double min_pivot_ratio) {
   if (model.num_one_forms() == 0) return Status::Ok;
-  Status status = ws.evaluate_one_forms(q);
-  if (status == Status::Ok) status = ws.factorize(min_pivot_ratio);
+  Status status = ws.factorize_at(q, min_pivot_ratio);
   if (status == Status::Ok) status = one_form_bias(model, ws, q, qdot, ws.rhs);
   if (status != Status::Ok) return status;
   if (model.has_applied_force()) {

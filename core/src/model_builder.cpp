@@ -2,7 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
-#include <map>
+#include <algorithm>
 #include <sstream>
 #include <stdexcept>
 
@@ -24,35 +24,34 @@ std::string describe_body(int index, const std::vector<std::string>& names) {
 int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::MatrixXd& block) {
   const int index = static_cast<int>(draft_.bodies_.size());
   const int k = static_cast<int>(names.size());
-  const std::string who = describe_body(index, names);
+  auto who = [&] { return describe_body(index, names); };  // built only for a message
   if (k == 0) fail("body " + std::to_string(index) + " has no coordinates");
   if (block.rows() != k || block.cols() != k) {
     std::ostringstream os;
-    os << who << ": mass block is " << block.rows() << "x" << block.cols() << ", expected " << k
+    os << who() << ": mass block is " << block.rows() << "x" << block.cols() << ", expected " << k
        << "x" << k << " (one row and column per coordinate)";
     fail(os.str());
   }
   for (int i = 0; i < k; ++i) {
-    if (names[i].empty()) fail(who + ": coordinate " + std::to_string(i) + " has an empty name");
-    for (std::size_t b = 0; b < draft_.bodies_.size(); ++b)
-      for (int j = 0; j < draft_.bodies_[b].size; ++j)
-        if (draft_.names_[draft_.bodies_[b].offset + j] == names[i])
-          fail("coordinate name '" + names[i] + "' is used by body " + std::to_string(b) +
-               " and by " + who);
+    if (names[i].empty()) fail(who() + ": coordinate " + std::to_string(i) + " has an empty name");
+    const auto owner = body_of_name_.find(names[i]);
+    if (owner != body_of_name_.end())
+      fail("coordinate name '" + names[i] + "' is used by body " + std::to_string(owner->second) +
+           " and by " + who());
     for (int j = 0; j < i; ++j)
-      if (names[j] == names[i]) fail(who + ": coordinate name '" + names[i] + "' appears twice");
+      if (names[j] == names[i]) fail(who() + ": coordinate name '" + names[i] + "' appears twice");
   }
   for (int i = 0; i < k; ++i)
     for (int j = 0; j < k; ++j)
       if (!std::isfinite(block(i, j))) {
         std::ostringstream os;
-        os << who << ": mass block entry (" << i << ", " << j << ") is " << block(i, j);
+        os << who() << ": mass block entry (" << i << ", " << j << ") is " << block(i, j);
         fail(os.str());
       }
   for (int i = 0; i < k; ++i)
     if (!(block(i, i) > 0.0)) {
       std::ostringstream os;
-      os << who << ": mass block entry (" << i << ", " << i << ") for " << names[i] << " is "
+      os << who() << ": mass block entry (" << i << ", " << i << ") for " << names[i] << " is "
          << block(i, i) << "; a mass or moment of inertia must be positive";
       fail(os.str());
     }
@@ -62,30 +61,35 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
       if (std::abs(block(i, j) - block(j, i)) > 1e-12 * scale) {
         std::ostringstream os;
         os.precision(17);
-        os << who << ": mass block is not symmetric: M(" << i << ", " << j << ") = " << block(i, j)
+        os << who() << ": mass block is not symmetric: M(" << i << ", " << j << ") = " << block(i, j)
            << " but M(" << j << ", " << i << ") = " << block(j, i);
         fail(os.str());
       }
   const Eigen::MatrixXd symmetric = 0.5 * (block + block.transpose());
-  const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(symmetric).eigenvalues()(0);
+  // A diagonal block with positive entries is SPD; skip the eigensolver (a million bodies).
+  const bool diagonal = (block - Eigen::MatrixXd(block.diagonal().asDiagonal())).cwiseAbs().maxCoeff() == 0.0;
+  const double smallest =
+      diagonal ? block.diagonal().minCoeff()
+               : Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(symmetric).eigenvalues()(0);
   if (!(smallest > 1e-14 * scale)) {
     std::ostringstream os;
-    os << who << ": mass block is not positive definite (smallest eigenvalue " << smallest << ")";
+    os << who() << ": mass block is not positive definite (smallest eigenvalue " << smallest << ")";
     fail(os.str());
   }
+  for (const auto& name : names) body_of_name_.emplace(name, index);
   draft_.bodies_.push_back({static_cast<int>(draft_.names_.size()), k});
   draft_.names_.insert(draft_.names_.end(), names.begin(), names.end());
-  blocks_.push_back(symmetric);
+  draft_.mass_.add_block(symmetric);
   return index;
 }
 
 int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, double mass, double inertia) {
   const std::vector<std::string> list(names.begin(), names.end());
-  const std::string who = describe_body(static_cast<int>(draft_.bodies_.size()), list);
+  auto who = [&] { return describe_body(static_cast<int>(draft_.bodies_.size()), list); };
   auto check = [&](const char* what, double value) {
     if (!(value > 0.0) || !std::isfinite(value)) {
       std::ostringstream os;
-      os << who << ": " << what << " = " << value << " must be positive and finite";
+      os << who() << ": " << what << " = " << value << " must be positive and finite";
       fail(os.str());
     }
   };
@@ -97,6 +101,18 @@ int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, doubl
 int ModelBuilder::add_one_form(const std::vector<int>& columns) {
   rows_.push_back(columns);
   return static_cast<int>(rows_.size()) - 1;
+}
+
+int ModelBuilder::add_holonomic_row(const std::vector<int>& columns) {
+  const int row = add_one_form(columns);
+  draft_.holonomic_rows_.push_back(row);
+  return row;
+}
+
+ModelBuilder& ModelBuilder::gap(ConstraintGap gap) {
+  if (!gap) fail("gap: the function is empty");
+  draft_.gap_ = std::move(gap);
+  return *this;
 }
 
 ModelBuilder& ModelBuilder::one_form_values(OneFormValues values) {
@@ -138,30 +154,38 @@ Model ModelBuilder::build() const {
   const auto& names = draft_.names_;
 
   Model model = draft_;
-  for (const auto& block : blocks_) model.mass_.add_block(block);
   model.inverse_mass_ = model.mass_.inverse();
 
   model.pattern_.rows = static_cast<int>(rows_.size());
   model.pattern_.cols = n;
+  std::vector<int> sorted;
   for (std::size_t r = 0; r < rows_.size(); ++r) {
-    const std::string row = "one-form row " + std::to_string(r);
-    if (rows_[r].empty()) fail(row + " has no columns (an empty row constrains nothing)");
-    std::map<int, int> seen;
+    auto row = [r] { return "one-form row " + std::to_string(r); };  // built only for a message
+    if (rows_[r].empty()) fail(row() + " has no columns (an empty row constrains nothing)");
     for (int c : rows_[r]) {
       if (c < 0 || c >= n) {
         std::ostringstream os;
-        os << row << ": column " << c << " is out of range (the model has " << n
+        os << row() << ": column " << c << " is out of range (the model has " << n
            << " coordinates, columns 0 to " << n - 1 << ")";
         fail(os.str());
       }
-      if (seen[c]++) fail(row + ": column " + std::to_string(c) + " (" + names[c] + ") appears twice");
       model.pattern_.col_idx.push_back(c);
     }
+    sorted.assign(rows_[r].begin(), rows_[r].end());
+    std::sort(sorted.begin(), sorted.end());
+    const auto twice = std::adjacent_find(sorted.begin(), sorted.end());
+    if (twice != sorted.end())
+      fail(row() + ": column " + std::to_string(*twice) + " (" + names[*twice] + ") appears twice");
     model.pattern_.row_ptr.push_back(model.pattern_.nnz());
   }
   if (!rows_.empty() && !model.values_)
     fail("the model has " + std::to_string(rows_.size()) +
          " one-form rows but no value function (call one_form_values)");
+  if (!model.holonomic_rows_.empty() && !model.gap_)
+    fail("the model has " + std::to_string(model.holonomic_rows_.size()) +
+         " holonomic rows but no gap function (call gap)");
+  if (model.holonomic_rows_.empty() && model.gap_)
+    fail("a gap function was given but no holonomic rows (add them with add_holonomic_row)");
   model.gram_ = sparse::GramAssembler(model.pattern_, model.inverse_mass_);
   return model;
 }

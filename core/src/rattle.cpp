@@ -4,26 +4,121 @@
 //   p^        = p_{k+1/2} + (h/2) f_{k+1}
 //   C(q_{k+1}) lambda~_{k+1} = -(2/h) mu_{k+1} M^-1 p^
 //   p~_{k+1}  = p^ + (h/2) mu_{k+1}^T lambda~_{k+1}
+// In holonomic mode the first half kick also gets (h/2) mu_k^T dlambda so that g(q_{k+1}) = 0
+// (DESIGN.md section 4); see enforce_gaps.
 #include <nonholo/rattle.hpp>
 
+#include <nonholo/dynamics.hpp>
+
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
 namespace nonholo {
 
+const char* to_string(HitchMode mode) {
+  return mode == HitchMode::OneForm ? "oneform" : "holonomic";
+}
+
+HitchMode hitch_mode_from_string(const std::string& name) {
+  if (name == "oneform") return HitchMode::OneForm;
+  if (name == "holonomic") return HitchMode::Holonomic;
+  throw std::invalid_argument("unknown hitch mode '" + name + "' (valid: oneform, holonomic)");
+}
+
 void validate(const RattleOptions& options) {
-  if (!(options.h > 0.0) || !std::isfinite(options.h)) {
+  auto fail = [](const char* what, double value, const char* rule) {
     std::ostringstream os;
-    os << "step size h = " << options.h << " must be positive and finite";
+    os << what << " = " << value << " " << rule;
     throw std::invalid_argument(os.str());
-  }
-  if (!(options.min_pivot_ratio >= 0.0) || !(options.min_pivot_ratio < 1.0)) {
-    std::ostringstream os;
-    os << "min_pivot_ratio = " << options.min_pivot_ratio << " must lie in [0, 1)";
-    throw std::invalid_argument(os.str());
+  };
+  if (!(options.h > 0.0) || !std::isfinite(options.h))
+    fail("step size h", options.h, "must be positive and finite");
+  if (!(options.min_pivot_ratio >= 0.0) || !(options.min_pivot_ratio < 1.0))
+    fail("min_pivot_ratio", options.min_pivot_ratio, "must lie in [0, 1)");
+  if (!(options.gap_tolerance > 0.0) || !std::isfinite(options.gap_tolerance))
+    fail("gap_tolerance", options.gap_tolerance, "must be positive and finite");
+  if (options.max_gap_iterations < 1)
+    fail("max_gap_iterations", options.max_gap_iterations, "must be at least 1");
+  if (options.restart_every < 0)
+    fail("restart_every", options.restart_every, "must be 0 (never) or positive");
+}
+
+namespace {
+
+// Holonomic mode. On entry ws.p_half and ws.q_next are the plain first half kick and drift;
+// on success g(q_next) = 0. Each correction solves C(q_k) dlambda = -(2/h^2) [g; 0] (hitch
+// rows get -g, the other rows 0) and applies p_half += (h/2) mu_k^T dlambda, which moves
+// q_next by (h^2/2) M^-1 mu_k^T dlambda: mu_k of that move is -g on the hitch rows (Newton
+// with the Jacobian frozen at q_k, converging at a rate O(h |thetadot|)) and 0 on the other
+// rows, so mu_k (q_{k+1} - q_{k-1}) = 0 still holds for them.
+Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const RattleOptions& o) {
+  const double h = o.h;
+  Status status = ws.factorize_at(s.q, o.min_pivot_ratio);
+  if (status != Status::Ok) return status;
+  const auto& rows = model.holonomic_rows();
+  const int count = model.num_holonomic();
+  const double floor = 16.0 * std::numeric_limits<double>::epsilon() * ws.q_next.lpNorm<Eigen::Infinity>();
+  const double tolerance = std::max(o.gap_tolerance, floor);
+  for (int it = 0;; ++it) {
+    model.gap(ws.q_next, ws.gap);
+    const double worst = ws.gap.lpNorm<Eigen::Infinity>();
+    if (!std::isfinite(worst))
+      return ws.fail(Status::NonFiniteState, "hitch gap is %g after %d corrections", worst, it);
+    if (worst <= tolerance) {
+      ws.gap_iterations = it;
+      return Status::Ok;
+    }
+    if (it == o.max_gap_iterations)
+      return ws.fail(Status::GapNotConverged,
+                     "hitch gap %.3g after %d corrections (tolerance %.3g); try a smaller step",
+                     worst, it, tolerance);
+    ws.rhs.setZero();
+    for (int j = 0; j < count; ++j) ws.rhs[rows[j]] = (-2.0 / (h * h)) * ws.gap[j];
+    if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
+    model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
+    ws.p_half += (0.5 * h) * ws.scratch_n;
+    model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
+    ws.q_next += (0.5 * h * h) * ws.scratch_n2;
   }
 }
+
+// p_half = p~_k + (h/2) force, velocity = M^-1 p_half, q_next = q_k + h velocity: one pass
+// when M is diagonal.
+void kick_drift(const sparse::BlockDiagonal& minv, double h, const double* q, const double* p,
+                const double* force, Workspace& ws) {
+  const int n = minv.size();
+  const double half = 0.5 * h;
+  double* ph = ws.p_half.data();
+  double* v = ws.velocity.data();
+  double* qn = ws.q_next.data();
+  if (minv.is_diagonal()) {
+    const double* w = minv.diagonal();
+    for (int i = 0; i < n; ++i) {
+      ph[i] = p[i] + half * force[i];
+      v[i] = w[i] * ph[i];
+      qn[i] = q[i] + h * v[i];
+    }
+    return;
+  }
+  for (int i = 0; i < n; ++i) ph[i] = p[i] + half * force[i];
+  minv.multiply(ph, v);
+  for (int i = 0; i < n; ++i) qn[i] = q[i] + h * v[i];
+}
+
+// Restart: f(t_k, q_k) + mu_k^T lambda(t_k, q_k, M^-1 p~_k) into ws.scratch_n2, leaving the
+// state untouched (the step commits or not as a whole).
+Status restart_force(const Model& model, Workspace& ws, const State& s, const RattleOptions& o) {
+  model.inverse_mass().multiply(s.p.data(), ws.p_next.data());  // p_next: free until the end
+  const Status status = constraint_multiplier(model, ws, s.t, s.q, ws.p_next, ws.lambda, o.min_pivot_ratio);
+  if (status != Status::Ok) return status;
+  model.mu_transpose_times(ws.mu_values.data(), ws.lambda.data(), ws.scratch_n2.data());
+  if (model.has_applied_force()) ws.scratch_n2 += ws.applied;  // constraint_multiplier left f(t_k, q_k) there
+  return Status::Ok;
+}
+
+}  // namespace
 
 Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& options) {
   const int n = model.num_coordinates(), m = model.num_one_forms();
@@ -42,9 +137,19 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
   const auto& minv = model.inverse_mass();
 
   // Half kick with the forces at t_k, then drift.
-  ws.p_half = s.p + half * s.force;
-  minv.multiply(ws.p_half.data(), ws.velocity.data());
-  ws.q_next = s.q + h * ws.velocity;
+  const double* force = s.force.data();
+  if (options.restart_every > 0 && m > 0 && s.steps > 0 && s.steps % options.restart_every == 0) {
+    const Status status = restart_force(model, ws, s, options);
+    if (status != Status::Ok) return status;
+    force = ws.scratch_n2.data();
+  }
+  kick_drift(minv, h, s.q.data(), s.p.data(), force, ws);
+  ws.gap_iterations = 0;
+  if (options.hitch == HitchMode::Holonomic && model.num_holonomic() > 0) {
+    const Status status = enforce_gaps(model, ws, s, options);
+    if (status != Status::Ok) return status;
+    minv.multiply(ws.p_half.data(), ws.velocity.data());
+  }
 
   // Unconstrained half kick with the applied force at t_{k+1}.
   if (model.has_applied_force()) {
@@ -52,10 +157,13 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
     ws.p_hat = ws.p_half + half * ws.applied;
     minv.multiply(ws.p_hat.data(), ws.velocity.data());
   } else {
-    ws.p_hat = ws.p_half;  // velocity already holds M^-1 p^; applied stays zero
+    // p^ = p_half: velocity already holds M^-1 p^; applied stays zero
   }
+  const bool forced = model.has_applied_force();
+  const double* ph = forced ? ws.p_hat.data() : ws.p_half.data();
 
   // Constraint half kick: the multipliers that put p~_{k+1} in the annihilator of D.
+  double check = 0.0;  // NaN or Inf anywhere in the new state makes this non-finite
   if (m > 0) {
     Status status = ws.evaluate_one_forms(ws.q_next);
     if (status == Status::Ok) status = ws.factorize(options.min_pivot_ratio);
@@ -63,22 +171,39 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
     model.mu_times(ws.mu_values.data(), ws.velocity.data(), ws.rhs.data());
     ws.rhs *= -2.0 / h;
     if ((status = ws.solve(ws.rhs.data(), ws.lambda.data())) != Status::Ok) return status;
-    model.mu_transpose_times(ws.mu_values.data(), ws.lambda.data(), ws.scratch_n.data());
-    ws.force_next = ws.applied + ws.scratch_n;
-    ws.p_next = ws.p_hat + half * ws.scratch_n;
+    model.mu_transpose_times(ws.mu_values.data(), ws.lambda.data(), ws.force_next.data());
+    // force_next = f_{k+1} + mu^T lambda, p~_{k+1} = p^ + (h/2) mu^T lambda, in one pass.
+    double* fn = ws.force_next.data();
+    double* pn = ws.p_next.data();
+    const double* fa = ws.applied.data();
+    const double* qn = ws.q_next.data();
+    if (forced) {
+      for (int i = 0; i < n; ++i) {
+        pn[i] = ph[i] + half * fn[i];
+        fn[i] += fa[i];
+        check += qn[i] + pn[i] + fn[i];
+      }
+    } else {
+      for (int i = 0; i < n; ++i) {
+        pn[i] = ph[i] + half * fn[i];
+        check += qn[i] + pn[i] + fn[i];
+      }
+    }
   } else {
     ws.force_next = ws.applied;
-    ws.p_next = ws.p_hat;
+    ws.p_next = forced ? ws.p_hat : ws.p_half;
+    check = ws.q_next.sum() + ws.p_next.sum() + ws.force_next.sum();
   }
-
-  if (!std::isfinite(ws.q_next.sum() + ws.p_next.sum() + ws.force_next.sum()))
+  if (!std::isfinite(check))
     return ws.fail(Status::NonFiniteState, "the step from t = %.17g produced NaN or Inf", s.t);
 
   s.t = t_next;
-  s.q = ws.q_next;
-  s.p = ws.p_next;
-  s.lambda = ws.lambda;
-  s.force = ws.force_next;
+  // Commit by exchanging buffers (no copy: a million-body state is 72 MB).
+  s.q.swap(ws.q_next);
+  s.p.swap(ws.p_next);
+  s.lambda.swap(ws.lambda);
+  s.force.swap(ws.force_next);
+  ++s.steps;
   ws.clear_message();
   return Status::Ok;
 }

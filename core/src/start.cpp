@@ -99,6 +99,12 @@ State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstV
   // scale |mu_a|_1 |M^-1 p~_0|_inf so that the test does not depend on units.
   if (model.num_one_forms() > 0) {
     check(ws.evaluate_one_forms(s.q), ws, "evaluating the one-forms at q0");
+    for (int k = 0; k < model.num_one_form_values(); ++k)
+      if (!std::isfinite(ws.mu_values[k])) {
+        std::ostringstream os;
+        os << "start: the one-forms at q0 are not finite (value " << k << " is " << ws.mu_values[k] << ")";
+        throw std::invalid_argument(os.str());
+      }
     Vector v(n);
     model.inverse_mass().multiply(s.p.data(), v.data());
     const double speed = v.lpNorm<Eigen::Infinity>();

@@ -13,6 +13,7 @@ const char* to_string(Status status) {
     case Status::DependentOneForms: return "dependent-one-forms";
     case Status::NearlyDependentOneForms: return "nearly-dependent-one-forms";
     case Status::LinearSolverFailure: return "linear-solver-failure";
+    case Status::GapNotConverged: return "gap-not-converged";
   }
   return "unknown";
 }

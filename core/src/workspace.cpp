@@ -17,6 +17,7 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   rhs.setZero(m);
   lambda.setZero(m);
   scratch_m.setZero(m);
+  gap.setZero(model.num_holonomic());
   if (m > 0) factor_ = sparse::make_factorization(options.backend, model.gram().pattern());
 }
 
@@ -32,38 +33,56 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
   const int n = model_->num_coordinates();
   if (mu_valid_ && std::memcmp(q.data(), mu_q_.data(), sizeof(double) * n) == 0) return Status::Ok;
   mu_valid_ = false;
+  factor_valid_ = false;
   if (model_->num_one_forms() == 0) return Status::Ok;
   model_->one_form_values(q, mu_values);
-  if (!std::isfinite(mu_values.sum())) {
-    const auto& pattern = model_->one_form_pattern();
-    for (int r = 0; r < pattern.rows; ++r)
-      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
-        if (!std::isfinite(mu_values[k]))
-          return fail(Status::NonFiniteOneForms, "one-form row %d, column %d (%s) has value %g", r,
-                      pattern.col_idx[k], model_->coordinate_names()[pattern.col_idx[k]].c_str(),
-                      mu_values[k]);
-  }
+  // NaN or Inf in mu reaches a diagonal entry of C, so factorize() finds it; the scan that
+  // names the entry runs only then (one pass less over mu in every step).
   mu_q_ = q;
   mu_valid_ = true;
   return Status::Ok;
 }
 
+Status Workspace::report_non_finite_one_forms() {
+  const auto& pattern = model_->one_form_pattern();
+  for (int r = 0; r < pattern.rows; ++r)
+    for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
+      if (!std::isfinite(mu_values[k]))
+        return fail(Status::NonFiniteOneForms, "one-form row %d, column %d (%s) has value %g", r,
+                    pattern.col_idx[k], model_->coordinate_names()[pattern.col_idx[k]].c_str(),
+                    mu_values[k]);
+  return fail(Status::NonFiniteOneForms, "%s", factor_->message());
+}
+
 Status Workspace::factorize(double min_pivot_ratio) {
   if (!factor_) return Status::Ok;
-  model_->gram().assemble(mu_values.data(), c_values.data());
   using sparse::FactorStatus;
-  const FactorStatus s = factor_->factorize(c_values.data(), min_pivot_ratio);
+  factor_valid_ = false;
+  FactorStatus s;
+  if (double* in_place = factor_->values_in_place()) {  // CHOLMOD: assemble into its own matrix
+    model_->gram().assemble(mu_values.data(), in_place, factor_->slot_positions());
+    s = factor_->factorize_in_place(min_pivot_ratio);
+  } else {
+    model_->gram().assemble(mu_values.data(), c_values.data());
+    s = factor_->factorize(c_values.data(), min_pivot_ratio);
+  }
   switch (s) {
-    case FactorStatus::Ok: return Status::Ok;
+    case FactorStatus::Ok: factor_valid_ = true; return Status::Ok;
     case FactorStatus::NotPositiveDefinite:
       return fail(Status::DependentOneForms, "%s", factor_->message());
     case FactorStatus::NearlySingular:
       return fail(Status::NearlyDependentOneForms, "%s", factor_->message());
     case FactorStatus::NonFinite:
-      return fail(Status::NonFiniteOneForms, "%s", factor_->message());
+      return report_non_finite_one_forms();
     default:
       return fail(Status::LinearSolverFailure, "%s (%s)", factor_->message(), sparse::to_string(s));
   }
+}
+
+Status Workspace::factorize_at(ConstVecRef q, double min_pivot_ratio) {
+  const Status status = evaluate_one_forms(q);
+  if (status != Status::Ok || factor_valid_) return status;
+  return factorize(min_pivot_ratio);
 }
 
 Status Workspace::solve(const double* b, double* x) {

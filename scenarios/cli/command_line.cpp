@@ -15,9 +15,9 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   app.require_subcommand(1);
 
   RunConfig run;
-  std::string backend = "auto";
+  std::string backend = "auto", hitch = "holonomic";
   auto* cmd = app.add_subcommand("run", "integrate one scene and print a summary line");
-  cmd->add_option("scene", run.scene, "scene name (particle, sleigh, snakeboard)")->required();
+  cmd->add_option("scene", run.scene, "scene name (particle, sleigh, snakeboard, sleigh_chain, wheeled_train)")->required();
   cmd->add_option("--dt", run.dt, "time step (default: the scene's)");
   cmd->add_option("--t-end", run.t_end, "final time (default: the scene's)");
   cmd->add_option("--set", run.assignments, "set a scene parameter, NAME=VALUE (repeatable)")
@@ -25,7 +25,12 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       ->allow_extra_args(false);
   cmd->add_option("--out", run.csv_path, "write the trajectory to this CSV file");
   cmd->add_option("--every", run.every, "write every K-th step to the CSV (default 1)");
-  cmd->add_option("--backend", backend, "factorisation of C: auto, dense, cholmod");
+  cmd->add_option("--backend", backend,
+                  "factorisation of C: auto, block-diagonal, dense, cholmod-natural, cholmod-amd");
+  cmd->add_option("--hitch", hitch, "hitches: holonomic (position level, default) or oneform");
+  cmd->add_option("--restart", run.restart,
+                  "reset the multipliers to the continuous ones every K steps (0: never; "
+                  "default: the scene's)");
 
   // CLI11 would only say that a subcommand is required; name the unknown word instead.
   if (argc > 1 && argv[1][0] != '-' && std::string(argv[1]) != "run") {
@@ -42,9 +47,12 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   try {
     if (cmd->count("--dt") && !(run.dt > 0.0))
       throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
+    if (cmd->count("--restart") && run.restart < 0)
+      throw std::invalid_argument("--restart " + std::to_string(run.restart) + ": must be 0 (never) or positive");
     if (cmd->count("--t-end") && !(run.t_end >= 0.0))
       throw std::invalid_argument("--t-end " + std::to_string(run.t_end) + ": must be non-negative");
     run.backend = sparse::backend_from_string(backend);
+    run.hitch = hitch_mode_from_string(hitch);
     const RunSummary summary = run_scene(run);
     out << summary.line() << std::endl;
     if (summary.status != Status::Ok) {

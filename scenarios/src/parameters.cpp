@@ -51,6 +51,24 @@ double Parameters::operator[](const std::string& name) const {
   return values_[i];
 }
 
+long Parameters::whole(const std::string& name, long lo, long hi) const {
+  const double v = (*this)[name];
+  if (v == std::floor(v) && v >= static_cast<double>(lo) && v <= static_cast<double>(hi))
+    return static_cast<long>(v);
+  std::ostringstream os;
+  os << scene_ << ": parameter " << name << " = " << v << " must be a whole number from " << lo
+     << " to " << hi;
+  throw std::invalid_argument(os.str());
+}
+
+double Parameters::within(const std::string& name, double lo, double hi) const {
+  const double v = (*this)[name];
+  if (v >= lo && v <= hi) return v;
+  std::ostringstream os;
+  os << scene_ << ": parameter " << name << " = " << v << " must lie in [" << lo << ", " << hi << "]";
+  throw std::invalid_argument(os.str());
+}
+
 double Parameters::positive(const std::string& name, bool allow_zero) const {
   const double v = (*this)[name];
   if (v > 0.0 || (allow_zero && v == 0.0)) return v;

@@ -83,10 +83,13 @@ class CsvWriter {
 std::string RunSummary::line() const {
   std::ostringstream os;
   os.precision(6);
-  os << "scene=" << scene << " method=reflection steps=" << steps << " dt=" << dt
-     << " t_end=" << t_final << " wall_s=" << wall_s << " ns_per_step=" << ns_per_step
+  os << "scene=" << scene << " method=reflection hitch=" << hitch << " restart=" << restart
+     << " bodies=" << bodies
+     << " steps=" << steps << " dt=" << dt << " t_end=" << t_final << " wall_s=" << wall_s
+     << " ns_per_step=" << ns_per_step << " ns_per_body_step=" << ns_per_body_step
      << " energy_rel_err_max=" << energy_rel_err_max
-     << " energy_post_rel_err_max=" << energy_post_rel_err_max << " residual_max=" << residual_max;
+     << " energy_post_rel_err_max=" << energy_post_rel_err_max << " residual_max=" << residual_max
+     << " gap_max=" << gap_max;
   if (has_momentum) os << " momentum_drift_max=" << momentum_drift_max;
   os << " backend=" << backend << " status=" << to_string(status);
   return os.str();
@@ -102,6 +105,8 @@ RunSummary run_scene(const RunConfig& config) {
   const double t_end = config.t_end >= 0.0 ? config.t_end : info.default_t_end;
   RattleOptions options;
   options.h = dt;
+  options.hitch = config.hitch;
+  options.restart_every = config.restart >= 0 ? config.restart : info.default_restart;
   validate(options);
   if (!std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite");
   if (config.every < 1)
@@ -124,6 +129,9 @@ RunSummary run_scene(const RunConfig& config) {
   RunSummary summary;
   summary.scene = info.name;
   summary.backend = ws.backend_name();
+  summary.hitch = to_string(config.hitch);
+  summary.restart = options.restart_every;
+  summary.bodies = model.num_bodies();
   summary.dt = dt;
   summary.has_momentum = !model.momentum_maps().empty();
 
@@ -131,6 +139,7 @@ RunSummary run_scene(const RunConfig& config) {
   Vector j0(model.momentum_maps().size()), j(model.momentum_maps().size());
   evaluate_momentum_maps(model, state, j0);
   summary.residual_max = d0.residual;
+  summary.gap_max = d0.gap;
   if (csv) csv->row(state.t, state.q, d0);
 
   double output_s = 0.0;
@@ -150,6 +159,7 @@ RunSummary run_scene(const RunConfig& config) {
     summary.energy_post_rel_err_max =
         worst(summary.energy_post_rel_err_max, relative_change(d.energy_post, d0.energy_post));
     summary.residual_max = worst(summary.residual_max, d.residual);
+    summary.gap_max = worst(summary.gap_max, d.gap);
     if (summary.has_momentum) {
       evaluate_momentum_maps(model, state, j);
       summary.momentum_drift_max = worst(summary.momentum_drift_max, (j - j0).lpNorm<Eigen::Infinity>());
@@ -164,6 +174,7 @@ RunSummary run_scene(const RunConfig& config) {
   if (csv) csv->close();
   summary.t_final = state.t;
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
+  summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   summary.wall_s = seconds_since(start_time);
   return summary;
 }

@@ -9,10 +9,9 @@ void BlockDiagonal::add_block(const Eigen::Ref<const Eigen::MatrixXd>& block) {
   offsets_.push_back(size_);
   sizes_.push_back(k);
   starts_.push_back(static_cast<int>(values_.size()));
-  diag_.conservativeResize(size_ + k);
   for (int i = 0; i < k; ++i) {
     owner_.push_back(num_blocks() - 1);
-    diag_[size_ + i] = block(i, i);
+    diag_.push_back(block(i, i));
     for (int j = 0; j < k; ++j) {
       values_.push_back(block(i, j));
       if (i != j && block(i, j) != 0.0) diagonal_ = false;

@@ -34,7 +34,8 @@ struct CholmodLDLT::Impl {
   cholmod_dense* e = nullptr;
   std::vector<int> perm;          // k-th row of P C P^T is row perm[k] of C
   std::vector<int> slot_to_upper; // slot of C's pattern -> entry of c
-  std::vector<int> diag_slot;     // slot of C(i, i), i in original order
+  std::vector<int> diag_slot;     // slot of C's diagonal for the k-th row of the factor
+  std::vector<int> diag_pos;      // and its position in c
   std::vector<double> pivot, diag;
 
   Impl() {
@@ -110,7 +111,7 @@ struct CholmodLDLT::Impl {
 };
 
 CholmodLDLT::CholmodLDLT(const SymmetricPattern& pattern, CholmodOrdering ordering)
-    : Factorization(pattern.size), impl_(std::make_unique<Impl>()) {
+    : Factorization(pattern.size), impl_(std::make_unique<Impl>()), ordering_(ordering) {
   Impl& s = *impl_;
   const int m = pattern.size;
   if (ordering == CholmodOrdering::Amd) {
@@ -128,7 +129,11 @@ CholmodLDLT::CholmodLDLT(const SymmetricPattern& pattern, CholmodOrdering orderi
   if (!s.l || s.common.status < CHOLMOD_OK) s.fail("symbolic analysis of C failed");
 
   s.diag_slot.resize(m);
-  for (int j = 0; j < m; ++j) s.diag_slot[j] = pattern.diagonal_slot(j);
+  s.diag_pos.resize(m);
+  for (int k = 0; k < m; ++k) {  // factor order
+    s.diag_slot[k] = pattern.diagonal_slot(s.perm[k]);
+    s.diag_pos[k] = s.slot_to_upper[s.diag_slot[k]];
+  }
   s.pivot.resize(m);
   s.diag.resize(m);
   s.b = cholmod_allocate_dense(m, 1, m, CHOLMOD_REAL, &s.common);
@@ -168,11 +173,21 @@ FactorStatus CholmodLDLT::from_cholmod(int cholmod_status, const char* call) {
   }
 }
 
+double* CholmodLDLT::values_in_place() { return static_cast<double*>(impl_->c->x); }
+const int* CholmodLDLT::slot_positions() const { return impl_->slot_to_upper.data(); }
+
 FactorStatus CholmodLDLT::factorize(const double* c_values, double min_pivot_ratio) {
   Impl& s = *impl_;
-  const int m = size();
   double* cx = static_cast<double*>(s.c->x);
-  for (std::size_t slot = 0; slot < s.slot_to_upper.size(); ++slot) cx[s.slot_to_upper[slot]] = c_values[slot];
+  const int* to = s.slot_to_upper.data();
+  const std::size_t slots = s.slot_to_upper.size();
+  for (std::size_t slot = 0; slot < slots; ++slot) cx[to[slot]] = c_values[slot];
+  return factorize_in_place(min_pivot_ratio);
+}
+
+FactorStatus CholmodLDLT::factorize_in_place(double min_pivot_ratio) {
+  Impl& s = *impl_;
+  const int m = size();
   const int ok = cholmod_factorize(s.c, s.l, &s.common);
   // NOT_POSDEF for LDL^T means a zero pivot: the pivot scan below names its row. Any other
   // failure is CHOLMOD's own.
@@ -182,12 +197,23 @@ FactorStatus CholmodLDLT::factorize(const double* c_values, double min_pivot_rat
   // after a failure (l->minor < m) are not computed.
   const int* lp = static_cast<const int*>(s.l->p);
   const double* lx = static_cast<const double*>(s.l->x);
+  const double* cx = static_cast<const double*>(s.c->x);
   const size_t minor = s.l->minor;
-  for (int k = 0; k < m; ++k) {
-    s.diag[k] = c_values[s.diag_slot[s.perm[k]]];
-    s.pivot[k] = static_cast<size_t>(k) <= minor ? lx[lp[k]] : s.diag[k];
+  const int* diag_pos = s.diag_pos.data();
+  double* diag = s.diag.data();
+  double* pivot = s.pivot.data();
+  if (minor >= static_cast<size_t>(m)) {
+    for (int k = 0; k < m; ++k) {
+      diag[k] = cx[diag_pos[k]];
+      pivot[k] = lx[lp[k]];
+    }
+  } else {
+    for (int k = 0; k < m; ++k) {
+      diag[k] = cx[diag_pos[k]];
+      pivot[k] = static_cast<size_t>(k) <= minor ? lx[lp[k]] : diag[k];
+    }
   }
-  const FactorStatus status = check_pivots(s.pivot.data(), s.diag.data(), s.perm.data(), min_pivot_ratio);
+  const FactorStatus status = check_pivots(pivot, diag, s.perm.data(), min_pivot_ratio);
   if (status == FactorStatus::Ok && s.common.status == CHOLMOD_NOT_POSDEF)
     return from_cholmod(s.common.status, "cholmod_factorize");
   return status;

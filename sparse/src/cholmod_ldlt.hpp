@@ -18,11 +18,17 @@ class CholmodLDLT final : public Factorization {
 
   FactorStatus factorize(const double* c_values, double min_pivot_ratio) override;
   FactorStatus solve(const double* b, double* x) override;
-  Backend backend() const override { return Backend::Cholmod; }
+  double* values_in_place() override;
+  const int* slot_positions() const override;
+  FactorStatus factorize_in_place(double min_pivot_ratio) override;
+  Backend backend() const override {
+    return ordering_ == CholmodOrdering::Natural ? Backend::CholmodNatural : Backend::CholmodAmd;
+  }
 
  private:
   struct Impl;  // keeps cholmod.h out of every header
   std::unique_ptr<Impl> impl_;
+  CholmodOrdering ordering_;
   FactorStatus from_cholmod(int cholmod_status, const char* call);
 };
 

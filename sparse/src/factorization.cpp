@@ -2,7 +2,11 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
+#include <nonholo/sparse/structure.hpp>
+
+#include "block_llt.hpp"
 #include "cholmod_ldlt.hpp"
 #include "dense_llt.hpp"
 
@@ -27,21 +31,29 @@ const char* to_string(FactorStatus status) {
 const char* to_string(Backend backend) {
   switch (backend) {
     case Backend::Auto: return "auto";
+    case Backend::BlockDiagonal: return "block-diagonal";
     case Backend::Dense: return "dense";
-    case Backend::Cholmod: return "cholmod";
+    case Backend::CholmodNatural: return "cholmod-natural";
+    case Backend::CholmodAmd: return "cholmod-amd";
   }
   return "unknown";
 }
 
 Backend backend_from_string(const std::string& name) {
-  for (Backend b : {Backend::Auto, Backend::Dense, Backend::Cholmod})
+  for (Backend b : {Backend::Auto, Backend::BlockDiagonal, Backend::Dense, Backend::CholmodNatural,
+                    Backend::CholmodAmd})
     if (name == to_string(b)) return b;
-  throw std::invalid_argument("unknown backend '" + name + "' (valid: auto, dense, cholmod)");
+  throw std::invalid_argument("unknown backend '" + name +
+                              "' (valid: auto, block-diagonal, dense, cholmod-natural, cholmod-amd)");
 }
 
 Backend resolve_backend(Backend requested, const SymmetricPattern& pattern) {
   if (requested != Backend::Auto) return requested;
-  return pattern.size <= kDenseMaxSize ? Backend::Dense : Backend::Cholmod;
+  const DiagonalBlocks blocks = find_diagonal_blocks(pattern);
+  if (blocks.count() > 1 && blocks.max_size() <= kMaxDiagonalBlock) return Backend::BlockDiagonal;
+  if (pattern.size <= kDenseMaxSize) return Backend::Dense;
+  if (natural_envelope(pattern) <= 2LL * pattern.nnz()) return Backend::CholmodNatural;
+  return Backend::CholmodAmd;
 }
 
 FactorStatus Factorization::check_pivots(const double* pivot, const double* diag,
@@ -76,8 +88,15 @@ FactorStatus Factorization::check_pivots(const double* pivot, const double* diag
 
 std::unique_ptr<Factorization> make_factorization(Backend backend, const SymmetricPattern& pattern) {
   switch (resolve_backend(backend, pattern)) {
-    case Backend::Dense: return make_dense_llt(pattern);
-    case Backend::Cholmod: return std::make_unique<CholmodLDLT>(pattern, CholmodOrdering::Amd);
+    case Backend::BlockDiagonal: return make_block_llt(pattern);
+    case Backend::Dense:
+      if (pattern.size > kDenseForcedMaxSize)
+        throw std::invalid_argument("backend dense: C has " + std::to_string(pattern.size) +
+                                    " rows; the dense path stops at " +
+                                    std::to_string(kDenseForcedMaxSize) + " (use auto)");
+      return make_dense_llt(pattern);
+    case Backend::CholmodNatural: return std::make_unique<CholmodLDLT>(pattern, CholmodOrdering::Natural);
+    case Backend::CholmodAmd: return std::make_unique<CholmodLDLT>(pattern, CholmodOrdering::Amd);
     case Backend::Auto: break;
   }
   throw std::logic_error("make_factorization: unresolved backend");

@@ -4,16 +4,28 @@
 
 namespace nonholo::sparse {
 
-GramAssembler::GramAssembler(const RowPattern& a, const BlockDiagonal& w) {
+GramAssembler::GramAssembler(const RowPattern& a, const BlockDiagonal& w) : diagonal_(w.is_diagonal()) {
   const int m = a.rows;
   pattern_.size = m;
 
-  // Rows touching each block of W: the candidates for a nonzero C(r, c).
-  std::vector<std::vector<int>> rows_of_block(w.num_blocks());
-  for (int r = 0; r < m; ++r) {
-    for (int k = a.row_ptr[r]; k < a.row_ptr[r + 1]; ++k) {
-      auto& list = rows_of_block[w.block_of(a.col_idx[k])];
-      if (list.empty() || list.back() != r) list.push_back(r);
+  // Rows touching each block of W (compressed, ascending): the candidates for a nonzero
+  // C(r, c). Two passes, no per-block vectors (a million bodies).
+  const int blocks = w.num_blocks();
+  std::vector<int> block_ptr(blocks + 1, 0), last(blocks, -1), block_rows;
+  for (int pass = 0; pass < 2; ++pass) {
+    std::fill(last.begin(), last.end(), -1);
+    std::vector<int> next(block_ptr.begin(), block_ptr.end() - 1);
+    for (int r = 0; r < m; ++r)
+      for (int k = a.row_ptr[r]; k < a.row_ptr[r + 1]; ++k) {
+        const int b = w.block_of(a.col_idx[k]);
+        if (last[b] == r) continue;
+        last[b] = r;
+        if (pass == 0) ++block_ptr[b + 1];
+        else block_rows[next[b]++] = r;
+      }
+    if (pass == 0) {
+      for (int b = 0; b < blocks; ++b) block_ptr[b + 1] += block_ptr[b];
+      block_rows.resize(block_ptr[blocks]);
     }
   }
 
@@ -21,8 +33,8 @@ GramAssembler::GramAssembler(const RowPattern& a, const BlockDiagonal& w) {
   for (int c = 0; c < m; ++c) {  // column c of the lower triangle, rows r >= c
     candidates.clear();
     for (int k = a.row_ptr[c]; k < a.row_ptr[c + 1]; ++k)
-      for (int r : rows_of_block[w.block_of(a.col_idx[k])])
-        if (r >= c) candidates.push_back(r);
+      for (int b = w.block_of(a.col_idx[k]), t = block_ptr[b]; t < block_ptr[b + 1]; ++t)
+        if (block_rows[t] >= c) candidates.push_back(block_rows[t]);
     std::sort(candidates.begin(), candidates.end());
     candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
 
@@ -47,16 +59,58 @@ GramAssembler::GramAssembler(const RowPattern& a, const BlockDiagonal& w) {
     }
     pattern_.col_ptr.push_back(pattern_.nnz());
   }
+  if (diagonal_) {
+    // Only same-column products survive a diagonal W, each with weight W(j, j) (never the
+    // doubled off-diagonal products of a diagonal slot): keep the pairs and a per-value
+    // weight, half the memory of the general terms and streamed in order.
+    w_value_.resize(a.col_idx.size());
+    for (std::size_t k = 0; k < a.col_idx.size(); ++k) w_value_[k] = w.entry(a.col_idx[k], a.col_idx[k]);
+    pairs_.resize(2 * left_.size());
+    for (std::size_t t = 0; t < left_.size(); ++t) {
+      pairs_[2 * t] = left_[t];
+      pairs_[2 * t + 1] = right_[t];
+    }
+    std::vector<int>().swap(left_);
+    std::vector<int>().swap(right_);
+    std::vector<double>().swap(weight_);
+  }
 }
 
-void GramAssembler::assemble(const double* a_values, double* c_values) const {
-  const int slots = pattern_.nnz();
+namespace {
+
+// The general slot loop, with the store through `position` or direct.
+template <bool Scattered, class Term>
+void assemble_slots(int slots, const int* begin, const int* position, double* out, Term term) {
   for (int s = 0; s < slots; ++s) {
     double sum = 0.0;
-    for (int t = slot_begin_[s]; t < slot_begin_[s + 1]; ++t)
-      sum += weight_[t] * a_values[left_[t]] * a_values[right_[t]];
-    c_values[s] = sum;
+    for (int t = begin[s]; t < begin[s + 1]; ++t) sum += term(t);
+    out[Scattered ? position[s] : s] = sum;
   }
+}
+
+}  // namespace
+
+void GramAssembler::assemble(const double* a, double* c_values, const int* position) const {
+  const int slots = pattern_.nnz();
+  const int* begin = slot_begin_.data();
+  if (diagonal_) {
+    const int* pair = pairs_.data();
+    const double* wv = w_value_.data();
+    auto term = [&](int t) {
+      const int l = pair[2 * t], r = pair[2 * t + 1];
+      return wv[l] * a[l] * a[r];
+    };
+    if (position)
+      assemble_slots<true>(slots, begin, position, c_values, term);
+    else
+      assemble_slots<false>(slots, begin, position, c_values, term);
+    return;
+  }
+  auto term = [&](int t) { return weight_[t] * a[left_[t]] * a[right_[t]]; };
+  if (position)
+    assemble_slots<true>(slots, begin, position, c_values, term);
+  else
+    assemble_slots<false>(slots, begin, position, c_values, term);
 }
 
 }  // namespace nonholo::sparse

@@ -2,7 +2,7 @@
 // What to watch along a trajectory (DESIGN.md section 2): the energy of the average
 // momentum p~ (not exactly preserved unless D is translation invariant), the energy of the
 // post-momentum (preserved to round-off when f = 0, for any D), the constraint residual of
-// p~, and the model's momentum maps.
+// p~, the hitch gaps g(q), and the model's momentum maps.
 #include <nonholo/model.hpp>
 #include <nonholo/state.hpp>
 #include <nonholo/workspace.hpp>
@@ -15,6 +15,7 @@ struct Diagnostics {
   // that arrived at t_k (p_{-1/2} at the start: the same energy when f = 0).
   double energy_post = 0.0;
   double residual = 0.0;     // max_a |(mu(q_k) M^-1 p~_k)_a|; NaN if mu(q_k) is not finite
+  double gap = 0.0;          // max_j |g_j(q_k)| over the holonomic constraints (0 if none)
 };
 
 // h is the step size in use. Allocation-free; reuses mu(q_k) when the workspace holds it.

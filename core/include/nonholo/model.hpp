@@ -53,6 +53,13 @@ class Model {
 
   const std::vector<NamedMomentumMap>& momentum_maps() const { return momentum_maps_; }
 
+  // Holonomic constraints g(q) = 0 (hitches): the rows of mu that are their gradients, in
+  // declaration order, and the gaps g(q) (one per such row). Integrators may treat them as
+  // plain one-forms or enforce g = 0 at position level (see RattleOptions::hitch).
+  int num_holonomic() const { return static_cast<int>(holonomic_rows_.size()); }
+  const std::vector<int>& holonomic_rows() const { return holonomic_rows_; }
+  void gap(ConstVecRef q, VecRef g) const { gap_(q, g); }
+
   // Sparse products with the one-form values (nnz entries, pattern order).
   void mu_times(const double* mu, const double* x, double* y) const;            // y = mu x
   void mu_transpose_times(const double* mu, const double* lambda, double* g) const;  // g = mu^T lambda
@@ -72,6 +79,8 @@ class Model {
   PotentialGradient gradient_;
   ExternalForce force_;
   std::vector<NamedMomentumMap> momentum_maps_;
+  std::vector<int> holonomic_rows_;
+  ConstraintGap gap_;
 };
 
 }  // namespace nonholo

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace nonholo {
@@ -23,6 +24,12 @@ class ModelBuilder {
   // fixed for ever). Returns the row index. Checked in build(): non-empty, no duplicates,
   // every column in range.
   int add_one_form(const std::vector<int>& columns);
+  // A row that is the gradient of a holonomic constraint g_j(q) = 0 (a hitch component):
+  // added like add_one_form (its values come from one_form_values) and also recorded as
+  // holonomic; gap() gives g_j in the order of these calls.
+  int add_holonomic_row(const std::vector<int>& columns);
+  // The gaps g(q), required when there are holonomic rows.
+  ModelBuilder& gap(ConstraintGap gap);
   // Fills the values of all rows at q (required when there are rows).
   ModelBuilder& one_form_values(OneFormValues values);
   // The bias (d/dt mu) qdot. Optional: without it, dynamics.hpp falls back to a central
@@ -35,11 +42,11 @@ class ModelBuilder {
   Model build() const;
 
  private:
-  // The model being built: bodies, names and callbacks go straight in; build() validates
-  // the rows and fills the derived parts (metric, inverse, pattern, index map of C).
+  // The model being built: bodies, names, mass blocks and callbacks go straight in; build()
+  // validates the rows and fills the derived parts (inverse metric, pattern, index map of C).
   Model draft_;
-  std::vector<Eigen::MatrixXd> blocks_;
   std::vector<std::vector<int>> rows_;
+  std::unordered_map<std::string, int> body_of_name_;  // coordinate name -> body
 };
 
 }  // namespace nonholo

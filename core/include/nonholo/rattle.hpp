@@ -7,7 +7,21 @@
 #include <nonholo/status.hpp>
 #include <nonholo/workspace.hpp>
 
+#include <string>
+
 namespace nonholo {
+
+// How the model's holonomic constraints (hitches, DESIGN.md section 4) are treated:
+//   OneForm    their gradient rows are plain one-forms (the paper's method: the
+//              post-momentum energy is exact for f = 0, the gap |g| drifts slowly);
+//   Holonomic  as RATTLE does: the first half kick gets a correction mu_k^T dlambda that
+//              puts g(q_{k+1}) = 0 while keeping the other one-forms' averages exact
+//              (simplified Newton with the factorisation of C(q_k) the previous step left),
+//              and the gradient rows join mu in the second half kick as usual.
+enum class HitchMode { OneForm, Holonomic };
+const char* to_string(HitchMode mode);  // "oneform", "holonomic"
+// Throws std::invalid_argument naming the valid choices.
+HitchMode hitch_mode_from_string(const std::string& name);
 
 struct RattleOptions {
   double h = 0.01;  // time step
@@ -15,13 +29,27 @@ struct RattleOptions {
   // a one-form and the span of the others). Below it the step refuses: nearly dependent
   // one-forms would make lambda meaningless.
   double min_pivot_ratio = 1e-12;
+  HitchMode hitch = HitchMode::Holonomic;
+  // Holonomic mode: iterate until max_j |g_j(q_{k+1})| <= gap_tolerance (raised to
+  // 16 eps max|q| when coordinates are so large that round-off alone exceeds it) ...
+  double gap_tolerance = 1e-12;
+  // ... or fail with Status::GapNotConverged after this many corrections.
+  int max_gap_iterations = 20;
+  // Every this many steps (0: never, the paper's method), restart: replace lambda~_k by the
+  // continuous multiplier lambda(t_k, q_k, M^-1 p~_k) before the step, exactly as the start
+  // does. This removes the period-2 mode in lambda~ (README, "The period-2 mode"), which
+  // grows at the rate at which the continuous motion is attracting, fast in a driven train.
+  // The price: at each restart the post-momentum energy moves by O(h^2 |dlambda| |lambda|),
+  // so the f = 0 energy is exact only between restarts.
+  int restart_every = 0;
 };
 
 // Throws std::invalid_argument with the offending value.
 void validate(const RattleOptions& options);
 
 // One step t_k -> t_k + h. Never throws and never allocates. On failure the state is left
-// exactly as it was and ws.message() says why.
+// exactly as it was and ws.message() says why. On success the state's vectors have been
+// swapped with workspace buffers (see State).
 Status step(const Model& model, Workspace& ws, State& state, const RattleOptions& options);
 
 }  // namespace nonholo

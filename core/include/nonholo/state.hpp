@@ -2,7 +2,9 @@
 // The integrator state at t_k: (q_k, p~_k, lambda~_k) of DESIGN.md section 2, plus the total
 // generalised force f_k + mu_k^T lambda~_k that the next half kick needs. Keeping that force
 // with the state is the velocity-Verlet convention: one evaluation of mu per step. Create a
-// State with nonholo/start.hpp; the integrators keep the four fields consistent.
+// State with nonholo/start.hpp; the integrators keep the four fields consistent. A step
+// commits by swapping these vectors with the workspace's scratch (no copy), so their data()
+// pointers change from step to step: do not keep pointers into a State across steps.
 #include <nonholo/types.hpp>
 
 namespace nonholo {
@@ -13,6 +15,7 @@ struct State {
   Vector p;       // average momentum p~_k, with mu(q_k) M^-1 p~_k = 0
   Vector lambda;  // multipliers lambda~_k (sign convention M qdd = f + mu^T lambda)
   Vector force;   // f(t_k, q_k) + mu(q_k)^T lambda~_k
+  long steps = 0; // steps taken since the start (schedules RattleOptions::restart_every)
 
   // The post-momentum leaving t_k, p_{k+1/2} = p~_k + (h/2) force, and the one arriving,
   // p_{k-1/2} = p~_k - (h/2) force (both exact identities of the scheme).

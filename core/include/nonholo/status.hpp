@@ -13,6 +13,7 @@ enum class Status {
   DependentOneForms,    // C singular: the one-forms are linearly dependent here
   NearlyDependentOneForms,  // a pivot of C below the tolerance (e.g. a jackknifing train)
   LinearSolverFailure,  // the sparse solver failed (memory, size, invalid input)
+  GapNotConverged,      // holonomic mode: g(q_{k+1}) = 0 not reached within the iterations
 };
 
 const char* to_string(Status status);

@@ -19,6 +19,9 @@ using Potential = std::function<double(ConstVecRef q)>;
 using PotentialGradient = std::function<void(ConstVecRef q, VecRef gradient)>;
 // Generalised external forces / controls F(t, q); must write all n entries.
 using ExternalForce = std::function<void(double t, ConstVecRef q, VecRef force)>;
+// The gaps g(q) of the holonomic constraints (hitches), one entry per holonomic row, in
+// the order the rows were declared. Those rows of mu must be the gradients dg/dq.
+using ConstraintGap = std::function<void(ConstVecRef q, VecRef gap)>;
 // A scalar momentum map J(q, p), for example <p, xi_Q(q)> for a symmetry xi.
 using MomentumMap = std::function<double(ConstVecRef q, ConstVecRef p)>;
 

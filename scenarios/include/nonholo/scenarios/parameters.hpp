@@ -24,6 +24,10 @@ class Parameters {
   double operator[](const std::string& name) const;
   // Throws unless the parameter is finite and > 0 (>= 0 when allow_zero).
   double positive(const std::string& name, bool allow_zero = false) const;
+  // Throws unless the parameter is a whole number in [lo, hi].
+  long whole(const std::string& name, long lo, long hi) const;
+  // Throws unless lo <= value <= hi.
+  double within(const std::string& name, double lo, double hi) const;
   const std::vector<ParameterSpec>& specs() const { return specs_; }
   const std::string& scene() const { return scene_; }
 

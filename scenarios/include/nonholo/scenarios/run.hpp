@@ -1,5 +1,6 @@
 #pragma once
 // `nonholo run`: integrate one scene, optionally write its trajectory as CSV, and summarise.
+#include <nonholo/rattle.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/sparse/factorization.hpp>
 #include <nonholo/status.hpp>
@@ -18,11 +19,16 @@ struct RunConfig {
   std::string csv_path;                  // empty: no CSV
   long every = 1;                        // write every K-th step (and the last)
   sparse::Backend backend = sparse::Backend::Auto;
+  HitchMode hitch = HitchMode::Holonomic;
+  int restart = -1;  // RattleOptions::restart_every; < 0: the scene's default
 };
 
 struct RunSummary {
   std::string scene;
   std::string backend;
+  std::string hitch;
+  int restart = 0;
+  int bodies = 0;
   Status status = Status::Ok;
   std::string message;  // why the run stopped early
   long steps = 0;
@@ -30,9 +36,11 @@ struct RunSummary {
   double t_final = 0.0;
   double wall_s = 0.0;       // whole run: set-up, integration, diagnostics, output
   double ns_per_step = 0.0;  // integration and per-step diagnostics, without set-up or CSV
+  double ns_per_body_step = 0.0;
   double energy_rel_err_max = 0.0;
   double energy_post_rel_err_max = 0.0;
   double residual_max = 0.0;
+  double gap_max = 0.0;  // max over the steps of max_j |g_j(q_k)| (hitches; 0 without)
   bool has_momentum = false;
   double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|
 

@@ -23,6 +23,8 @@ struct SceneInfo {
   std::vector<ParameterSpec> parameters;
   double default_dt;
   double default_t_end;
+  // RattleOptions::restart_every unless the user overrides it (0: the paper's method).
+  int default_restart = 0;
   std::function<SceneSetup(const Parameters&)> build;
 
   Parameters defaults() const { return Parameters(name, parameters); }
@@ -31,6 +33,8 @@ struct SceneInfo {
 SceneInfo particle_scene();
 SceneInfo sleigh_scene();
 SceneInfo snakeboard_scene();
+SceneInfo sleigh_chain_scene();
+SceneInfo wheeled_train_scene();
 
 const std::vector<SceneInfo>& scene_catalogue();
 // Throws std::invalid_argument listing the known scenes.

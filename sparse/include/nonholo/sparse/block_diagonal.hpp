@@ -23,6 +23,8 @@ class BlockDiagonal {
   double entry(int i, int j) const;
   // True when every block is diagonal: products then reduce to a scaled copy.
   bool is_diagonal() const { return diagonal_; }
+  // The diagonal entries (size() of them); all of the matrix when is_diagonal().
+  const double* diagonal() const { return diag_.data(); }
 
   // y = B x (x and y must not alias).
   void multiply(const double* x, double* y) const;
@@ -34,7 +36,7 @@ class BlockDiagonal {
   bool diagonal_ = true;
   std::vector<int> offsets_, sizes_, starts_, owner_;
   std::vector<double> values_;
-  Eigen::VectorXd diag_;
+  std::vector<double> diag_;
 };
 
 }  // namespace nonholo::sparse

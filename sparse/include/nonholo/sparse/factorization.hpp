@@ -25,13 +25,24 @@ enum class FactorStatus {
 };
 const char* to_string(FactorStatus status);
 
-// Which factorisation serves C. Auto picks by structure (see resolve_backend).
-enum class Backend { Auto, Dense, Cholmod };
+// Which factorisation serves C (DESIGN.md section 3):
+//   BlockDiagonal   C splits into small independent blocks (every row touches one body):
+//                   a dense Cholesky per block, no sparse factorisation;
+//   Dense           a small coupled C: dense Cholesky, fixed-size up to 4 rows;
+//   CholmodNatural  CHOLMOD simplicial LDL^T in the natural order: banded C (chains);
+//   CholmodAmd      CHOLMOD simplicial LDL^T after an AMD ordering: general patterns.
+// Auto picks by structure; see resolve_backend.
+enum class Backend { Auto, BlockDiagonal, Dense, CholmodNatural, CholmodAmd };
 const char* to_string(Backend backend);
-// "auto", "dense", "cholmod"; throws std::invalid_argument naming the valid choices.
+// "auto", "block-diagonal", "dense", "cholmod-natural", "cholmod-amd"; throws
+// std::invalid_argument naming the valid choices.
 Backend backend_from_string(const std::string& name);
-// Largest C handled by the dense path when the choice is Auto.
+// Largest C handled by the dense path when the choice is Auto, and when it is forced.
 inline constexpr int kDenseMaxSize = 8;
+inline constexpr int kDenseForcedMaxSize = 2000;
+// Auto: BlockDiagonal if C has more than one block and every block has at most 8 rows;
+// otherwise Dense up to kDenseMaxSize rows; otherwise CholmodNatural if the natural order
+// is banded (natural_envelope <= 2 nnz), else CholmodAmd. Any other request is returned.
 Backend resolve_backend(Backend requested, const SymmetricPattern& pattern);
 
 class Factorization {
@@ -45,6 +56,12 @@ class Factorization {
   // a Gram matrix that ratio is the squared sine of the angle between one row and the span
   // of the rows eliminated before it, so it measures (near) dependence scale-free.
   virtual FactorStatus factorize(const double* c_values, double min_pivot_ratio) = 0;
+  // Optional zero-copy path. When values_in_place() is non-null, a caller may write slot s
+  // of C straight to values_in_place()[slot_positions()[s]] (GramAssembler::assemble does)
+  // and call factorize_in_place(), saving factorize()'s copy of every value.
+  virtual double* values_in_place() { return nullptr; }
+  virtual const int* slot_positions() const { return nullptr; }
+  virtual FactorStatus factorize_in_place(double /*min_pivot_ratio*/) { return FactorStatus::Failed; }
   // x = C^-1 b after a successful factorize(). b and x may alias.
   virtual FactorStatus solve(const double* b, double* x) = 0;
 
@@ -79,6 +96,8 @@ class Factorization {
   Message message_;
 };
 
+// Throws std::invalid_argument when the requested backend cannot serve this pattern
+// (block-diagonal for a coupled C, dense beyond kDenseForcedMaxSize rows).
 std::unique_ptr<Factorization> make_factorization(Backend backend, const SymmetricPattern& pattern);
 
 }  // namespace nonholo::sparse

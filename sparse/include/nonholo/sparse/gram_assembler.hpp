@@ -16,15 +16,23 @@ class GramAssembler {
   GramAssembler(const RowPattern& a, const BlockDiagonal& w);
 
   const SymmetricPattern& pattern() const { return pattern_; }
-  int num_products() const { return static_cast<int>(weight_.size()); }
+  int num_products() const { return slot_begin_.back(); }
 
-  // c_values[s] for every slot s of pattern(), from the values of A in pattern order.
-  void assemble(const double* a_values, double* c_values) const;
+  // c_values[s] for every slot s of pattern(), from the values of A in pattern order;
+  // with `position`, slot s goes to c_values[position[s]] instead (a solver's own storage).
+  void assemble(const double* a_values, double* c_values, const int* position = nullptr) const;
 
  private:
   SymmetricPattern pattern_;
-  // Slot s sums weight_[t] * a[left_[t]] * a[right_[t]] for t in [slot_begin_[s], slot_begin_[s+1]).
+  // Slot s sums the terms t in [slot_begin_[s], slot_begin_[s+1]) ...
   std::vector<int> slot_begin_{0};
+  // ... for a diagonal W (the usual case): a[left] a[right] w_value_[left], where
+  // w_value_[k] is W's entry for the column of A's k-th value (pairs stored interleaved,
+  // in slot order: one sweep through A's values);
+  std::vector<int> pairs_;
+  std::vector<double> w_value_;
+  // ... otherwise weight_[t] a[left_[t]] a[right_[t]].
+  bool diagonal_ = true;
   std::vector<int> left_, right_;
   std::vector<double> weight_;
 };

@@ -1,0 +1,153 @@
+// Scaling of the chain step (DESIGN.md section 7, issue 3): ns per body-step of
+// sleigh_chain at N = 10^3 .. 10^6 in both hitch modes, and, on the same C (assembled at the
+// same state), CHOLMOD factor+solve alone and LAPACK dpbtrf+dpbtrs (the banded floor). Also
+// the spring-coupled chain without hitches (C diagonal) through the block-diagonal path and
+// forced through CHOLMOD. tools/scaling.py runs this binary and turns the JSON into the
+// README's table, ratios and plot; every benchmark reports its N as the counter `bodies`.
+#include <nonholo/rattle.hpp>
+#include <nonholo/scenarios/scene.hpp>
+#include <nonholo/sparse/factorization.hpp>
+#include <nonholo/start.hpp>
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+extern "C" {
+void dpbtrf_(const char* uplo, const int* n, const int* kd, double* ab, const int* ldab, int* info,
+             std::size_t uplo_len);
+void dpbtrs_(const char* uplo, const int* n, const int* kd, const int* nrhs, const double* ab,
+             const int* ldab, double* b, const int* ldb, int* info, std::size_t uplo_len);
+}
+
+namespace {
+
+using namespace nonholo;
+using sparse::Backend;
+
+// A chain after a few steps (generic angles), kept across the benchmark's repeated calls:
+// building a million-body model takes seconds.
+struct Chain {
+  scenarios::SceneSetup setup;
+  Workspace ws;
+  State state;
+  RattleOptions options;
+  Vector rhs;  // a right-hand side for the factor+solve benchmarks
+
+  Chain(long bodies, bool hitched, Backend backend, HitchMode mode)
+      : setup(build(bodies, hitched)), ws(setup.model, {backend}),
+        state(start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0)) {
+    options.hitch = mode;
+    for (int k = 0; k < 5; ++k) step(setup.model, ws, state, options);
+    ws.evaluate_one_forms(state.q);
+    setup.model.gram().assemble(ws.mu_values.data(), ws.c_values.data());
+    rhs = Vector::LinSpaced(setup.model.num_one_forms(), -1.0, 1.0);
+  }
+  static scenarios::SceneSetup build(long bodies, bool hitched) {
+    const auto& info = scenarios::find_scene("sleigh_chain");
+    auto p = info.defaults();
+    p.set("bodies", static_cast<double>(bodies));
+    p.set("hitched", hitched ? 1.0 : 0.0);
+    if (!hitched) p.set("k", 1.0);
+    return info.build(p);
+  }
+};
+
+Chain& chain(long bodies, bool hitched, Backend backend, HitchMode mode) {
+  static std::map<std::string, std::unique_ptr<Chain>> cache;
+  const std::string key = std::to_string(bodies) + (hitched ? "h" : "s") + sparse::to_string(backend) +
+                          to_string(mode);
+  if (cache.count(key) == 0) {
+    cache.clear();  // one chain alive at a time (a million bodies is ~1 GB with its factor)
+    cache[key] = std::make_unique<Chain>(bodies, hitched, backend, mode);
+  }
+  return *cache[key];
+}
+
+void report(benchmark::State& s, long bodies, const char* label) {
+  s.counters["bodies"] = static_cast<double>(bodies);
+  s.SetLabel(label);
+}
+
+void step_loop(benchmark::State& s, bool hitched, Backend backend, HitchMode mode) {
+  const long n = s.range(0);
+  Chain& c = chain(n, hitched, backend, mode);
+  for (auto _ : s) {
+    if (step(c.setup.model, c.ws, c.state, c.options) != Status::Ok) s.SkipWithError(c.ws.message());
+    benchmark::DoNotOptimize(c.state.q.data());
+  }
+  report(s, n, c.ws.backend_name());
+}
+
+void ChainStep_OneForm(benchmark::State& s) { step_loop(s, true, Backend::Auto, HitchMode::OneForm); }
+void ChainStep_Holonomic(benchmark::State& s) { step_loop(s, true, Backend::Auto, HitchMode::Holonomic); }
+void SpringChainStep_BlockDiagonal(benchmark::State& s) {
+  step_loop(s, false, Backend::BlockDiagonal, HitchMode::OneForm);
+}
+void SpringChainStep_Cholmod(benchmark::State& s) {
+  step_loop(s, false, Backend::CholmodNatural, HitchMode::OneForm);
+}
+
+// CHOLMOD numeric factorisation + solve of the chain's C, values already assembled.
+void ChainFactorSolve_Cholmod(benchmark::State& s) {
+  const long n = s.range(0);
+  Chain& c = chain(n, true, Backend::Auto, HitchMode::OneForm);
+  auto f = sparse::make_factorization(Backend::CholmodNatural, c.setup.model.gram().pattern());
+  Vector x(c.rhs.size());
+  for (auto _ : s) {
+    if (f->factorize(c.ws.c_values.data(), 0.0) != sparse::FactorStatus::Ok) s.SkipWithError(f->message());
+    f->solve(c.rhs.data(), x.data());
+    benchmark::DoNotOptimize(x.data());
+  }
+  report(s, n, "cholmod-natural");
+}
+
+// The banded floor: LAPACK dpbtrf + dpbtrs on the same C in band storage (lower, kd from the
+// pattern). Each iteration writes the band from C's values, as any factorisation must.
+void ChainFactorSolve_LapackBanded(benchmark::State& s) {
+  const long n = s.range(0);
+  Chain& c = chain(n, true, Backend::Auto, HitchMode::OneForm);
+  const auto& pat = c.setup.model.gram().pattern();
+  const int m = pat.size;
+  int kd = 0;
+  for (int j = 0; j < m; ++j)
+    for (int t = pat.col_ptr[j]; t < pat.col_ptr[j + 1]; ++t) kd = std::max(kd, pat.row_idx[t] - j);
+  const int ldab = kd + 1, one = 1;
+  std::vector<int> band_pos(pat.nnz());
+  for (int j = 0; j < m; ++j)
+    for (int t = pat.col_ptr[j]; t < pat.col_ptr[j + 1]; ++t)
+      band_pos[t] = (pat.row_idx[t] - j) + ldab * j;  // AB(1 + i - j, j), column-major
+  std::vector<double> ab(static_cast<std::size_t>(ldab) * m), x(m);
+  const double* cv = c.ws.c_values.data();
+  for (auto _ : s) {
+    std::fill(ab.begin(), ab.end(), 0.0);
+    for (int t = 0; t < pat.nnz(); ++t) ab[band_pos[t]] = cv[t];
+    int info = 0;
+    dpbtrf_("L", &m, &kd, ab.data(), &ldab, &info, 1);
+    if (info != 0) s.SkipWithError("dpbtrf failed");
+    std::copy(c.rhs.data(), c.rhs.data() + m, x.begin());
+    dpbtrs_("L", &m, &kd, &one, ab.data(), &ldab, x.data(), &m, &info, 1);
+    benchmark::DoNotOptimize(x.data());
+  }
+  report(s, n, ("lapack kd=" + std::to_string(kd)).c_str());
+}
+
+void sizes(benchmark::internal::Benchmark* b) {
+  for (long n : {1000L, 10000L, 100000L, 1000000L}) b->Arg(n);
+  b->Unit(benchmark::kMicrosecond)->UseRealTime();
+}
+
+BENCHMARK(ChainStep_OneForm)->Apply(sizes);
+BENCHMARK(ChainStep_Holonomic)->Apply(sizes);
+BENCHMARK(ChainFactorSolve_Cholmod)->Apply(sizes);
+BENCHMARK(ChainFactorSolve_LapackBanded)->Apply(sizes);
+BENCHMARK(SpringChainStep_BlockDiagonal)->Apply(sizes);
+BENCHMARK(SpringChainStep_Cholmod)->Apply(sizes);
+
+}  // namespace
+
+BENCHMARK_MAIN();

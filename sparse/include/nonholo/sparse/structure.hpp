@@ -1,0 +1,29 @@
+#pragma once
+// Structural facts about the pattern of C that decide how to factorise it (DESIGN.md
+// section 3, "model only what a scene needs"): whether it splits into small independent
+// blocks, and whether its natural order is already banded.
+#include <nonholo/sparse/patterns.hpp>
+
+#include <vector>
+
+namespace nonholo::sparse {
+
+// The connected components of C's graph: C is block-diagonal after grouping these rows.
+// Block b holds rows[block_ptr[b] .. block_ptr[b+1]), sorted; blocks are ordered by their
+// first row.
+struct DiagonalBlocks {
+  std::vector<int> block_ptr{0};
+  std::vector<int> rows;
+  int count() const { return static_cast<int>(block_ptr.size()) - 1; }
+  int size(int b) const { return block_ptr[b + 1] - block_ptr[b]; }
+  int max_size() const;
+};
+DiagonalBlocks find_diagonal_blocks(const SymmetricPattern& pattern);
+
+// Entries of the lower envelope in the natural order: sum over rows i of (i - first column
+// of row i) + 1. A Cholesky factor in the natural order fills at most this envelope, so
+// envelope <= 2 nnz(lower C) means the natural order is banded and needs no fill-reducing
+// permutation.
+long long natural_envelope(const SymmetricPattern& pattern);
+
+}  // namespace nonholo::sparse

@@ -1,0 +1,61 @@
+#include <nonholo/sparse/structure.hpp>
+
+#include <algorithm>
+#include <numeric>
+
+namespace nonholo::sparse {
+
+int DiagonalBlocks::max_size() const {
+  int largest = 0;
+  for (int b = 0; b < count(); ++b) largest = std::max(largest, size(b));
+  return largest;
+}
+
+DiagonalBlocks find_diagonal_blocks(const SymmetricPattern& pattern) {
+  const int m = pattern.size;
+  // Union-find over the off-diagonal entries; the root of a set is its smallest row.
+  std::vector<int> parent(m);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto root = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (int j = 0; j < m; ++j)
+    for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) {
+      const int a = root(pattern.row_idx[s]), b = root(j);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  // Number the blocks by their smallest row, then bucket the rows (ascending) into them.
+  std::vector<int> block(m, -1), counts;
+  for (int i = 0; i < m; ++i) {
+    const int r = root(i);
+    if (r == i) {
+      block[i] = static_cast<int>(counts.size());
+      counts.push_back(0);
+    }
+    ++counts[block[r]];
+    block[i] = block[r];
+  }
+  DiagonalBlocks result;
+  result.block_ptr.resize(counts.size() + 1);
+  result.block_ptr[0] = 0;
+  for (std::size_t b = 0; b < counts.size(); ++b) result.block_ptr[b + 1] = result.block_ptr[b] + counts[b];
+  result.rows.resize(m);
+  std::vector<int> next(result.block_ptr.begin(), result.block_ptr.end() - 1);
+  for (int i = 0; i < m; ++i) result.rows[next[block[i]]++] = i;
+  return result;
+}
+
+long long natural_envelope(const SymmetricPattern& pattern) {
+  const int m = pattern.size;
+  std::vector<int> first(m);
+  std::iota(first.begin(), first.end(), 0);
+  // Column j touches rows row_idx[s] >= j: row i's first column is the smallest such j.
+  for (int j = m - 1; j >= 0; --j)
+    for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) first[pattern.row_idx[s]] = j;
+  long long envelope = 0;
+  for (int i = 0; i < m; ++i) envelope += i - first[i] + 1;
+  return envelope;
+}
+
+}  // namespace nonholo::sparse

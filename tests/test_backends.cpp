@@ -1,0 +1,144 @@
+// The choice of factorisation by structure (DESIGN.md section 3, "model only what a scene
+// needs"): the structural facts it rests on, the choice each scene gets, clear refusals
+// when a forced backend cannot serve, and agreement of all backends on the same step.
+#include <nonholo/rattle.hpp>
+#include <nonholo/scenarios/scene.hpp>
+#include <nonholo/sparse/factorization.hpp>
+#include <nonholo/sparse/structure.hpp>
+#include <nonholo/start.hpp>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "support/expect_error.hpp"
+
+namespace nonholo {
+namespace {
+
+using sparse::Backend;
+
+// Lower-triangle pattern from a list of off-diagonal couplings (i > j) of an m x m matrix.
+sparse::SymmetricPattern pattern_of(int m, const std::vector<std::pair<int, int>>& lower) {
+  sparse::SymmetricPattern p;
+  p.size = m;
+  for (int j = 0; j < m; ++j) {
+    p.row_idx.push_back(j);
+    std::vector<int> rows;
+    for (auto [i, jj] : lower)
+      if (jj == j) rows.push_back(i);
+    std::sort(rows.begin(), rows.end());
+    p.row_idx.insert(p.row_idx.end(), rows.begin(), rows.end());
+    p.col_ptr.push_back(p.nnz());
+  }
+  return p;
+}
+
+TEST(Structure, DiagonalBlocksAreTheConnectedComponents) {
+  // 0-3, 3-5 and 1-4 coupled; 2 alone.
+  const auto blocks = sparse::find_diagonal_blocks(pattern_of(6, {{3, 0}, {5, 3}, {4, 1}}));
+  ASSERT_EQ(blocks.count(), 3);
+  EXPECT_EQ(std::vector<int>(blocks.rows.begin(), blocks.rows.begin() + 3), (std::vector<int>{0, 3, 5}));
+  EXPECT_EQ(blocks.size(1), 2);
+  EXPECT_EQ(blocks.rows[3], 1);
+  EXPECT_EQ(blocks.rows[4], 4);
+  EXPECT_EQ(blocks.rows[5], 2);
+  EXPECT_EQ(blocks.max_size(), 3);
+}
+
+TEST(Structure, NaturalEnvelopeMeasuresBandedness) {
+  // Tridiagonal: envelope = nnz. Arrow (row 0 coupled to all): rows reach back to column 0.
+  std::vector<std::pair<int, int>> tri, arrow;
+  for (int i = 1; i < 10; ++i) {
+    tri.push_back({i, i - 1});
+    arrow.push_back({i, 0});
+  }
+  EXPECT_EQ(sparse::natural_envelope(pattern_of(10, tri)), 19);
+  EXPECT_EQ(sparse::natural_envelope(pattern_of(10, arrow)), 10 + 45);
+  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(10, tri)), Backend::CholmodNatural);
+  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(10, arrow)), Backend::CholmodAmd);
+  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(8, arrow)), Backend::Dense);
+  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(20, {})), Backend::BlockDiagonal);
+  EXPECT_EQ(sparse::resolve_backend(Backend::CholmodAmd, pattern_of(20, {})), Backend::CholmodAmd);
+}
+
+scenarios::SceneSetup scene(const std::string& name, const std::vector<std::string>& sets) {
+  const auto& info = scenarios::find_scene(name);
+  auto p = info.defaults();
+  for (const auto& s : sets) p.assign(s);
+  return info.build(p);
+}
+
+TEST(BackendChoice, EachSceneGetsTheBackendItsStructureCallsFor) {
+  struct Case {
+    std::string scene;
+    std::vector<std::string> sets;
+    const char* expected;
+  };
+  const std::vector<Case> cases{
+      {"particle", {}, "dense"},      // one row
+      {"sleigh", {}, "dense"},        // one row
+      {"snakeboard", {}, "dense"},    // two rows on one body: one 2 x 2 block
+      {"sleigh_chain", {"bodies=3"}, "dense"},  // 7 coupled rows
+      {"sleigh_chain", {"bodies=10"}, "cholmod-natural"},     // banded, 28 rows
+      {"sleigh_chain", {"bodies=1000"}, "cholmod-natural"},
+      {"sleigh_chain", {"bodies=1000", "hitched=0", "k=1"}, "block-diagonal"},  // C diagonal
+      {"wheeled_train", {"bodies=200"}, "cholmod-natural"},
+  };
+  for (const auto& c : cases) {
+    const auto setup = scene(c.scene, c.sets);
+    Workspace ws(setup.model);
+    EXPECT_STREQ(ws.backend_name(), c.expected) << c.scene << " " << (c.sets.empty() ? "" : c.sets[0]);
+  }
+}
+
+TEST(BackendChoice, AForcedBackendThatCannotServeIsRefusedClearly) {
+  const auto chain = scene("sleigh_chain", {"bodies=10"});
+  testing::expect_error([&] { Workspace ws(chain.model, {Backend::BlockDiagonal}); },
+                        "backend block-diagonal: C has a coupled block of 28 one-forms");
+  const auto big = scene("sleigh_chain", {"bodies=1000"});
+  testing::expect_error([&] { Workspace ws(big.model, {Backend::Dense}); },
+                        "backend dense: C has 2998 rows; the dense path stops at 2000");
+}
+
+// One step from the same state through every backend that can serve: the same numbers.
+void expect_backends_agree(const std::string& name, const std::vector<std::string>& sets,
+                           const std::vector<Backend>& backends) {
+  const auto setup = scene(name, sets);
+  const Model& model = setup.model;
+  for (HitchMode hitch : {HitchMode::OneForm, HitchMode::Holonomic}) {
+    RattleOptions o;
+    o.hitch = hitch;
+    Workspace ref_ws(model, {backends[0]});
+    State start = start_from_velocity(model, ref_ws, 0.0, setup.q0, setup.v0);
+    for (int k = 0; k < 20; ++k) ASSERT_EQ(step(model, ref_ws, start, o), Status::Ok);  // generic angles
+    State ref = start;
+    ASSERT_EQ(step(model, ref_ws, ref, o), Status::Ok);
+    for (std::size_t b = 1; b < backends.size(); ++b) {
+      Workspace ws(model, {backends[b]});
+      State s = start;
+      ASSERT_EQ(step(model, ws, s, o), Status::Ok) << ws.message();
+      const double scale_p = ref.p.lpNorm<Eigen::Infinity>(), scale_l = ref.lambda.lpNorm<Eigen::Infinity>();
+      EXPECT_LE((s.q - ref.q).lpNorm<Eigen::Infinity>(), 1e-10) << name << " " << ws.backend_name();
+      EXPECT_LE((s.p - ref.p).lpNorm<Eigen::Infinity>(), 1e-10 * scale_p) << name << " " << ws.backend_name();
+      EXPECT_LE((s.lambda - ref.lambda).lpNorm<Eigen::Infinity>(), 1e-10 * scale_l)
+          << name << " " << ws.backend_name() << " hitch " << to_string(hitch);
+    }
+  }
+}
+
+TEST(BackendChoice, AllBackendsAgreeOnTheSameStep) {
+  expect_backends_agree("sleigh_chain", {"bodies=10"},
+                        {Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd});
+  expect_backends_agree("wheeled_train", {"bodies=40"},
+                        {Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd});
+  expect_backends_agree("sleigh_chain", {"bodies=30", "hitched=0", "k=1"},
+                        {Backend::Dense, Backend::BlockDiagonal, Backend::CholmodNatural, Backend::CholmodAmd});
+  expect_backends_agree("snakeboard", {},
+                        {Backend::Dense, Backend::BlockDiagonal, Backend::CholmodNatural, Backend::CholmodAmd});
+}
+
+}  // namespace
+}  // namespace nonholo
