@@ -70,6 +70,37 @@ GramAssembler::GramAssembler(const RowPattern& a, const BlockDiagonal& w) : diag
       pairs_[2 * t] = left_[t];
       pairs_[2 * t + 1] = right_[t];
     }
+    // Compact form: every slot's terms within 255 values of its smallest one, at most 255 terms.
+    const int slots = pattern_.nnz();
+    compact_ = true;
+    base_.resize(slots);
+    count_.resize(slots);
+    offsets_.reserve(2 * left_.size());
+    for (int slot = 0; slot < slots && compact_; ++slot) {
+      int lo = a.nnz(), hi = 0;
+      for (int t = slot_begin_[slot]; t < slot_begin_[slot + 1]; ++t) {
+        lo = std::min({lo, left_[t], right_[t]});
+        hi = std::max({hi, left_[t], right_[t]});
+      }
+      const int terms = slot_begin_[slot + 1] - slot_begin_[slot];
+      if (terms > 255 || hi - lo > 255) {
+        compact_ = false;
+        break;
+      }
+      base_[slot] = lo;
+      count_[slot] = static_cast<unsigned char>(terms);
+      for (int t = slot_begin_[slot]; t < slot_begin_[slot + 1]; ++t) {
+        offsets_.push_back(static_cast<unsigned char>(left_[t] - lo));
+        offsets_.push_back(static_cast<unsigned char>(right_[t] - lo));
+      }
+    }
+    if (compact_) {
+      std::vector<int>().swap(pairs_);
+    } else {
+      std::vector<int>().swap(base_);
+      std::vector<unsigned char>().swap(count_);
+      std::vector<unsigned char>().swap(offsets_);
+    }
     std::vector<int>().swap(left_);
     std::vector<int>().swap(right_);
     std::vector<double>().swap(weight_);
@@ -88,11 +119,32 @@ void assemble_slots(int slots, const int* begin, const int* position, double* ou
   }
 }
 
+template <bool Scattered>
+void assemble_compact(int slots, const int* base, const unsigned char* count, const unsigned char* off,
+                      const double* wv, const double* a, const int* position, double* out) {
+  for (int s = 0; s < slots; ++s) {
+    const double* as = a + base[s];
+    const double* ws = wv + base[s];
+    double sum = 0.0;
+    for (int t = count[s]; t > 0; --t, off += 2) sum += ws[off[0]] * as[off[0]] * as[off[1]];
+    out[Scattered ? position[s] : s] = sum;
+  }
+}
+
 }  // namespace
 
 void GramAssembler::assemble(const double* a, double* c_values, const int* position) const {
   const int slots = pattern_.nnz();
   const int* begin = slot_begin_.data();
+  if (diagonal_ && compact_) {
+    if (position)
+      assemble_compact<true>(slots, base_.data(), count_.data(), offsets_.data(), w_value_.data(), a,
+                             position, c_values);
+    else
+      assemble_compact<false>(slots, base_.data(), count_.data(), offsets_.data(), w_value_.data(), a,
+                              position, c_values);
+    return;
+  }
   if (diagonal_) {
     const int* pair = pairs_.data();
     const double* wv = w_value_.data();

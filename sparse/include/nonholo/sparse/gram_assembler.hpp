@@ -31,6 +31,12 @@ class GramAssembler {
   // in slot order: one sweep through A's values);
   std::vector<int> pairs_;
   std::vector<double> w_value_;
+  // The same terms in a compact form, used when every slot fits it (chains do): slot s
+  // starts at A-value base_[s]; its count_[s] terms are byte offsets (left, right) from it.
+  // A third of the index traffic of pairs_, which is what the assembly's time is spent on.
+  bool compact_ = false;
+  std::vector<int> base_;
+  std::vector<unsigned char> count_, offsets_;
   // ... otherwise weight_[t] a[left_[t]] a[right_[t]].
   bool diagonal_ = true;
   std::vector<int> left_, right_;
