@@ -55,7 +55,8 @@ class Model {
 
   // Holonomic constraints g(q) = 0 (hitches): the rows of mu that are their gradients, in
   // declaration order, and the gaps g(q) (one per such row). Integrators may treat them as
-  // plain one-forms or enforce g = 0 at position level (see RattleOptions::hitch).
+  // plain one-forms or enforce g = 0 at position level (see RattleOptions::hitch). Call
+  // gap() only when num_holonomic() > 0.
   int num_holonomic() const { return static_cast<int>(holonomic_rows_.size()); }
   const std::vector<int>& holonomic_rows() const { return holonomic_rows_; }
   void gap(ConstVecRef q, VecRef g) const { gap_(q, g); }
