@@ -7,7 +7,7 @@ NONHOLO_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 NONHOLO_BUILD="${NONHOLO_BUILD:-$NONHOLO_ROOT/build}"
 
 packages=(g++ make cmake libeigen3-dev libsuitesparse-dev libgtest-dev libgmock-dev
-          libbenchmark-dev libcli11-dev liblapack-dev)
+          libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -14,6 +14,7 @@ const char* to_string(Status status) {
     case Status::NearlyDependentOneForms: return "nearly-dependent-one-forms";
     case Status::LinearSolverFailure: return "linear-solver-failure";
     case Status::GapNotConverged: return "gap-not-converged";
+    case Status::OdeSolverFailure: return "ode-solver-failure";
   }
   return "unknown";
 }

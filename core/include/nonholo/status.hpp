@@ -14,6 +14,7 @@ enum class Status {
   NearlyDependentOneForms,  // a pivot of C below the tolerance (e.g. a jackknifing train)
   LinearSolverFailure,  // the sparse solver failed (memory, size, invalid input)
   GapNotConverged,      // holonomic mode: g(q_{k+1}) = 0 not reached within the iterations
+  OdeSolverFailure,     // a reference ODE solver gave up (ARKODE: too much work, error test)
 };
 
 const char* to_string(Status status);

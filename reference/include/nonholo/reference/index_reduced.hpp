@@ -1,0 +1,39 @@
+#pragma once
+// The continuous equations of DESIGN.md section 1 in index-reduced, first-order form, the
+// equations standard ODE solvers integrate (the baselines of DESIGN.md section 2):
+//   qdot = v,   M vdot = f + mu^T lambda,   C lambda = -(mu' v) - mu M^-1 f,
+// and the projection onto the constraints users often apply after each step. Every
+// evaluation factorises C(q) once through the model's Workspace; nothing allocates.
+#include <nonholo/model.hpp>
+#include <nonholo/status.hpp>
+#include <nonholo/workspace.hpp>
+
+namespace nonholo::reference {
+
+class IndexReducedOde {
+ public:
+  explicit IndexReducedOde(const Model& model, const WorkspaceOptions& options = {});
+
+  const Model& model() const { return *model_; }
+  int size() const { return 2 * model_->num_coordinates(); }  // y = (q, v)
+  Workspace& workspace() { return ws_; }
+
+  // ydot = (v, vdot) at (t, y). y and ydot hold size() entries and must not alias.
+  Status rate(double t, const double* y, double* ydot);
+  // Projects y = (q, v) onto the constraints: q onto g(q) = 0 when the model has holonomic
+  // rows (Gauss-Newton along M^-1 mu^T, until max|g| <= 1e-13 or 16 eps max|q|), then v
+  // M-orthogonally onto D(q).
+  Status project(double* y);
+
+  // (1/2) v^T M v + V(q), max_a |(mu(q) v)_a| and max_j |g_j(q)|.
+  double energy(const double* y);
+  double residual(const double* y);
+  double gap(const double* y);
+
+ private:
+  const Model* model_;
+  Workspace ws_;
+  Vector q_, v_, p_, lambda_;  // scratch
+};
+
+}  // namespace nonholo::reference

@@ -1,0 +1,66 @@
+#pragma once
+// Reference integrators of the index-reduced equations (DESIGN.md section 2, baselines):
+// classical fixed-step RK4, and SUNDIALS ARKODE's adaptive explicit Runge-Kutta with the
+// Dormand-Prince 5(4) or the Verner 6(5) table. Each can project onto the constraints after
+// every step (positions onto g = 0 for holonomic rows, velocities onto D), as users often do.
+#include <nonholo/reference/index_reduced.hpp>
+
+#include <memory>
+#include <string>
+
+namespace nonholo::reference {
+
+enum class Method { Rk4, ArkodeDp5, ArkodeVerner };
+const char* to_string(Method method);  // "rk4", "arkode-dp5", "arkode-verner"
+// Throws std::invalid_argument naming the valid choices.
+Method method_from_string(const std::string& name);
+
+struct Options {
+  double h = 0.01;       // RK4's step
+  double tol = 1e-8;     // ARKODE: relative and absolute tolerance
+  bool project = false;  // project onto the constraints after every step
+  long max_steps = 100'000'000;  // ARKODE: internal steps allowed per advance_to
+};
+// Throws std::invalid_argument for a non-positive h or tol, or tol < 1e-15.
+void validate(const Options& options);
+
+class Integrator {
+ public:
+  // Starts at (t0, q0, v0); v0 should lie in D(q0) (see start_from_velocity). Throws
+  // std::invalid_argument on sizes or options, std::runtime_error if ARKODE cannot start.
+  Integrator(const Model& model, Method method, const Options& options, double t0, ConstVecRef q0,
+             ConstVecRef v0);
+  ~Integrator();
+  Integrator(const Integrator&) = delete;
+  Integrator& operator=(const Integrator&) = delete;
+
+  // Integrates to exactly t (> t()). RK4 takes whole steps of h and a last shorter one if
+  // needed; ARKODE stops at t. On failure the state is that of the last good step and
+  // message() says why.
+  Status advance_to(double t);
+
+  double t() const { return t_; }
+  ConstVecRef q() const;
+  ConstVecRef v() const;
+  const double* y() const { return y_.data(); }
+  IndexReducedOde& ode() { return ode_; }
+  long steps() const { return steps_; }          // integrator steps taken so far
+  long rhs_evaluations() const { return rhs_; }  // evaluations of the equations
+  const std::string& message() const { return message_; }
+
+ private:
+  struct Arkode;  // keeps the SUNDIALS headers out of this one
+  Status rk4_step(double h);
+  Status fail(Status status, const std::string& why);
+
+  IndexReducedOde ode_;
+  Method method_;
+  Options options_;
+  double t_;
+  Vector y_, k1_, k2_, k3_, k4_, tmp_;
+  long steps_ = 0, rhs_ = 0;
+  std::string message_;
+  std::unique_ptr<Arkode> arkode_;
+};
+
+}  // namespace nonholo::reference
