@@ -99,6 +99,26 @@ TEST(CommandLine, ChainSummaryReportsBodiesGapHitchAndBackend) {
   EXPECT_EQ(kv.at("status"), "ok");
 }
 
+TEST(CommandLine, ReferenceMethodsReportTheirWork) {
+  for (const char* method : {"rk4", "arkode-dp5", "arkode-verner"}) {
+    const Result r = run({"run", "sleigh", "--method", method, "--dt", "0.1", "--t-end", "2"});
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto kv = parse_summary(r.out);
+    EXPECT_EQ(kv.at("method"), method);
+    EXPECT_EQ(kv.at("steps"), "20");
+    EXPECT_EQ(kv.at("hitch"), "velocity");
+    EXPECT_EQ(kv.at("energy_post_rel_err_max"), "nan") << "no post-momentum";
+    EXPECT_GT(std::stol(kv.at("rhs_evals")), 0);
+    EXPECT_LT(std::stod(kv.at("energy_rel_err_max")), 1e-5);
+  }
+  const auto kv = parse_summary(
+      run({"run", "sleigh_chain", "--set", "bodies=5", "--method", "rk4", "--project", "--t-end", "1"}).out);
+  EXPECT_EQ(kv.at("hitch"), "projected");
+  EXPECT_LE(std::stod(kv.at("gap_max")), 1e-12);
+  EXPECT_LE(std::stod(kv.at("residual_max")), 1e-14);
+  EXPECT_EQ(parse_summary(run({"run", "sleigh"}).out).count("rhs_evals"), 0u);
+}
+
 TEST(CommandLine, ChainCsvNamesEveryBodysCoordinates) {
   const std::string path = temp_path("chain.csv");
   ASSERT_EQ(run({"run", "sleigh_chain", "--set", "bodies=3", "--t-end", "0.05", "--out", path}).code, 0);
@@ -181,6 +201,12 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({}, "subcommand");
   expect_failure({"fly"}, "unknown command 'fly' (commands: run)");
   expect_failure({"run", "sleigh_chain", "--hitch", "rigid"}, "unknown hitch mode 'rigid' (valid: oneform, holonomic)");
+  expect_failure({"run", "sleigh", "--method", "euler"},
+                 "unknown method 'euler' (valid: reflection, rk4, arkode-dp5, arkode-verner)");
+  expect_failure({"run", "sleigh", "--project"}, "--project applies to the methods rk4, arkode-dp5 and arkode-verner");
+  expect_failure({"run", "sleigh", "--tol", "1e-6"}, "--tol applies to the methods arkode-dp5 and arkode-verner");
+  expect_failure({"run", "sleigh", "--method", "rk4", "--hitch", "oneform"}, "--hitch applies to the reflection method only");
+  expect_failure({"run", "sleigh", "--method", "arkode-dp5", "--tol", "0"}, "tolerance = 0 must lie in [1e-15, 1)");
   expect_failure({"run", "sleigh_chain", "--restart", "-1"}, "--restart -1: must be 0 (never) or positive");
   expect_failure({"run", "sleigh_chain", "--set", "bodies=0"}, "parameter bodies = 0 must be a whole number");
   expect_failure({"run", "sleigh_chain", "--backend", "block-diagonal"},

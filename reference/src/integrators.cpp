@@ -77,7 +77,7 @@ struct Integrator::Arkode {
 
 Integrator::Integrator(const Model& model, Method method, const Options& options, double t0,
                        ConstVecRef q0, ConstVecRef v0)
-    : ode_(model), method_(method), options_(options), t_(t0) {
+    : ode_(model, {options.backend}), method_(method), options_(options), t_(t0) {
   validate(options);
   const int n = model.num_coordinates();
   if (q0.size() != n || v0.size() != n) {

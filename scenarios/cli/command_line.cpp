@@ -28,6 +28,12 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   cmd->add_option("--backend", backend,
                   "factorisation of C: auto, block-diagonal, dense, cholmod-natural, cholmod-amd");
   cmd->add_option("--hitch", hitch, "hitches: holonomic (position level, default) or oneform");
+  cmd->add_option("--method", run.method,
+                  "reflection (default), rk4, arkode-dp5, arkode-verner (the last three integrate "
+                  "the index-reduced equations; --dt is then RK4's step or the output interval)");
+  cmd->add_flag("--project", run.project,
+                "rk4 and arkode-*: project onto the constraints (and hitches) after every step");
+  cmd->add_option("--tol", run.tol, "arkode-*: relative and absolute tolerance (default 1e-8)");
   cmd->add_option("--restart", run.restart,
                   "reset the multipliers to the continuous ones every K steps (0: never; "
                   "default: the scene's)");
@@ -47,6 +53,13 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   try {
     if (cmd->count("--dt") && !(run.dt > 0.0))
       throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
+    if (run.method != "reflection") {
+      for (const char* option : {"--hitch", "--restart"})
+        if (cmd->count(option))
+          throw std::invalid_argument(std::string(option) + " applies to the reflection method only");
+    } else if (cmd->count("--tol")) {
+      throw std::invalid_argument("--tol applies to the methods arkode-dp5 and arkode-verner");
+    }
     if (cmd->count("--restart") && run.restart < 0)
       throw std::invalid_argument("--restart " + std::to_string(run.restart) + ": must be 0 (never) or positive");
     if (cmd->count("--t-end") && !(run.t_end >= 0.0))

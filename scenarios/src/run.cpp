@@ -1,5 +1,7 @@
 #include <nonholo/scenarios/run.hpp>
 
+#include "runners.hpp"
+
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/start.hpp>
@@ -50,7 +52,7 @@ class CsvWriter {
   ~CsvWriter() {
     if (file_) std::fclose(file_);
   }
-  void row(double t, const Vector& q, const Diagnostics& d) {
+  void row(double t, ConstVecRef q, const Diagnostics& d) {
     char* p = buffer_.data();
     put(p, t);
     for (Eigen::Index i = 0; i < q.size(); ++i) put(p, q[i]);
@@ -83,7 +85,7 @@ class CsvWriter {
 std::string RunSummary::line() const {
   std::ostringstream os;
   os.precision(6);
-  os << "scene=" << scene << " method=reflection hitch=" << hitch << " restart=" << restart
+  os << "scene=" << scene << " method=" << method << " hitch=" << hitch << " restart=" << restart
      << " bodies=" << bodies
      << " steps=" << steps << " dt=" << dt << " t_end=" << t_final << " wall_s=" << wall_s
      << " ns_per_step=" << ns_per_step << " ns_per_body_step=" << ns_per_body_step
@@ -91,6 +93,7 @@ std::string RunSummary::line() const {
      << " energy_post_rel_err_max=" << energy_post_rel_err_max << " residual_max=" << residual_max
      << " gap_max=" << gap_max;
   if (has_momentum) os << " momentum_drift_max=" << momentum_drift_max;
+  if (rhs_evaluations >= 0) os << " rhs_evals=" << rhs_evaluations;
   os << " backend=" << backend << " status=" << to_string(status);
   return os.str();
 }
@@ -103,11 +106,20 @@ RunSummary run_scene(const RunConfig& config) {
 
   const double dt = config.dt > 0.0 ? config.dt : info.default_dt;
   const double t_end = config.t_end >= 0.0 ? config.t_end : info.default_t_end;
-  RattleOptions options;
-  options.h = dt;
-  options.hitch = config.hitch;
-  options.restart_every = config.restart >= 0 ? config.restart : info.default_restart;
-  validate(options);
+  MethodChoice choice;
+  choice.method = config.method;
+  choice.backend = config.backend;
+  choice.rattle.h = dt;
+  choice.rattle.hitch = config.hitch;
+  choice.rattle.restart_every = config.restart >= 0 ? config.restart : info.default_restart;
+  validate(choice.rattle);
+  choice.reference.h = dt;
+  choice.reference.tol = config.tol;
+  choice.reference.project = config.project;
+  reference::validate(choice.reference);
+  const bool reflection = config.method == "reflection";
+  if (reflection && config.project)
+    throw std::invalid_argument("--project applies to the methods rk4, arkode-dp5 and arkode-verner");
   if (!std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite");
   if (config.every < 1)
     throw std::invalid_argument("--every " + std::to_string(config.every) + ": must be at least 1");
@@ -118,8 +130,7 @@ RunSummary run_scene(const RunConfig& config) {
 
   SceneSetup setup = info.build(params);
   const Model& model = setup.model;
-  Workspace ws(model, WorkspaceOptions{config.backend});
-  State state = start_from_velocity(model, ws, setup.t0, setup.q0, setup.v0);
+  std::unique_ptr<Runner> runner = make_runner(setup, choice);
 
   std::unique_ptr<CsvWriter> csv;
   if (!config.csv_path.empty()) {
@@ -128,51 +139,57 @@ RunSummary run_scene(const RunConfig& config) {
 
   RunSummary summary;
   summary.scene = info.name;
-  summary.backend = ws.backend_name();
-  summary.hitch = to_string(config.hitch);
-  summary.restart = options.restart_every;
+  summary.method = config.method;
+  summary.backend = runner->backend();
+  // The reference methods treat hitch rows as velocity constraints, closed by --project.
+  summary.hitch = reflection ? to_string(config.hitch) : (config.project ? "projected" : "velocity");
+  summary.restart = reflection ? choice.rattle.restart_every : 0;
   summary.bodies = model.num_bodies();
   summary.dt = dt;
   summary.has_momentum = !model.momentum_maps().empty();
 
-  const Diagnostics d0 = diagnose(model, ws, state, dt);
+  const Diagnostics d0 = runner->diagnostics();
   Vector j0(model.momentum_maps().size()), j(model.momentum_maps().size());
-  evaluate_momentum_maps(model, state, j0);
+  runner->momentum_maps(j0);
   summary.residual_max = d0.residual;
   summary.gap_max = d0.gap;
-  if (csv) csv->row(state.t, state.q, d0);
+  if (csv) csv->row(runner->t(), runner->q(), d0);
 
   double output_s = 0.0;
+  const double t0 = runner->t();
   const auto loop_start = Clock::now();
   for (long k = 1; k <= steps; ++k) {
-    const Status status = step(model, ws, state, options);
+    const double t_before = runner->t();
+    const Status status = runner->advance(t0 + static_cast<double>(k) * dt);
     if (status != Status::Ok) {
       summary.status = status;
       std::ostringstream os;
-      os << "step " << k << " from t = " << state.t << " failed: " << to_string(status) << ": " << ws.message();
+      os << "step " << k << " from t = " << t_before << " failed: " << to_string(status) << ": "
+         << runner->message();
       summary.message = os.str();
       break;
     }
     summary.steps = k;
-    const Diagnostics d = diagnose(model, ws, state, dt);
+    const Diagnostics d = runner->diagnostics();
     summary.energy_rel_err_max = worst(summary.energy_rel_err_max, relative_change(d.energy, d0.energy));
     summary.energy_post_rel_err_max =
         worst(summary.energy_post_rel_err_max, relative_change(d.energy_post, d0.energy_post));
     summary.residual_max = worst(summary.residual_max, d.residual);
     summary.gap_max = worst(summary.gap_max, d.gap);
     if (summary.has_momentum) {
-      evaluate_momentum_maps(model, state, j);
+      runner->momentum_maps(j);
       summary.momentum_drift_max = worst(summary.momentum_drift_max, (j - j0).lpNorm<Eigen::Infinity>());
     }
     if (csv && (k % config.every == 0 || k == steps)) {
       const auto out_start = Clock::now();
-      csv->row(state.t, state.q, d);
+      csv->row(runner->t(), runner->q(), d);
       output_s += seconds_since(out_start);
     }
   }
   const double loop_s = seconds_since(loop_start) - output_s;
   if (csv) csv->close();
-  summary.t_final = state.t;
+  summary.t_final = runner->t();
+  summary.rhs_evaluations = runner->rhs_evaluations();
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   summary.wall_s = seconds_since(start_time);

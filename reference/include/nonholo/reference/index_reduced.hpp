@@ -17,6 +17,7 @@ class IndexReducedOde {
   const Model& model() const { return *model_; }
   int size() const { return 2 * model_->num_coordinates(); }  // y = (q, v)
   Workspace& workspace() { return ws_; }
+  const Workspace& workspace() const { return ws_; }
 
   // ydot = (v, vdot) at (t, y). y and ydot hold size() entries and must not alias.
   Status rate(double t, const double* y, double* ydot);

@@ -20,6 +20,7 @@ struct Options {
   double tol = 1e-8;     // ARKODE: relative and absolute tolerance
   bool project = false;  // project onto the constraints after every step
   long max_steps = 100'000'000;  // ARKODE: internal steps allowed per advance_to
+  sparse::Backend backend = sparse::Backend::Auto;  // factorisation of C at every evaluation
 };
 // Throws std::invalid_argument for a non-positive h or tol, or tol < 1e-15.
 void validate(const Options& options);
@@ -44,6 +45,7 @@ class Integrator {
   ConstVecRef v() const;
   const double* y() const { return y_.data(); }
   IndexReducedOde& ode() { return ode_; }
+  const IndexReducedOde& ode() const { return ode_; }
   long steps() const { return steps_; }          // integrator steps taken so far
   long rhs_evaluations() const { return rhs_; }  // evaluations of the equations
   const std::string& message() const { return message_; }

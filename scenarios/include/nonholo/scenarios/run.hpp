@@ -21,10 +21,14 @@ struct RunConfig {
   sparse::Backend backend = sparse::Backend::Auto;
   HitchMode hitch = HitchMode::Holonomic;
   int restart = -1;  // RattleOptions::restart_every; < 0: the scene's default
+  std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner
+  bool project = false;  // reference methods: project onto the constraints after each step
+  double tol = 1e-8;     // ARKODE methods: relative and absolute tolerance
 };
 
 struct RunSummary {
   std::string scene;
+  std::string method;
   std::string backend;
   std::string hitch;
   int restart = 0;
@@ -41,6 +45,7 @@ struct RunSummary {
   double energy_post_rel_err_max = 0.0;
   double residual_max = 0.0;
   double gap_max = 0.0;  // max over the steps of max_j |g_j(q_k)| (hitches; 0 without)
+  long rhs_evaluations = -1;  // reference methods: evaluations of the equations
   bool has_momentum = false;
   double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|
 

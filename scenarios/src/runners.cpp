@@ -1,0 +1,96 @@
+#include "runners.hpp"
+
+#include <nonholo/start.hpp>
+
+#include <limits>
+#include <stdexcept>
+
+namespace nonholo::scenarios {
+namespace {
+
+class ReflectionRunner final : public Runner {
+ public:
+  ReflectionRunner(const SceneSetup& setup, const MethodChoice& c)
+      : model_(setup.model), ws_(setup.model, {c.backend}), options_(c.rattle),
+        state_(start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0)) {}
+  Status advance(double) override { return step(model_, ws_, state_, options_); }
+  double t() const override { return state_.t; }
+  ConstVecRef q() const override { return state_.q; }
+  Diagnostics diagnostics() override { return diagnose(model_, ws_, state_, options_.h); }
+  void momentum_maps(VecRef out) override { evaluate_momentum_maps(model_, state_, out); }
+  std::string message() const override { return ws_.message(); }
+  std::string backend() const override { return ws_.backend_name(); }
+
+ private:
+  const Model& model_;
+  Workspace ws_;
+  RattleOptions options_;
+  State state_;
+};
+
+// The velocity of the consistent start, M^-1 p~_0, in D(q0).
+Vector started_velocity(const SceneSetup& setup, sparse::Backend backend) {
+  Workspace ws(setup.model, {backend});
+  const State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
+  Vector v(s.p.size());
+  setup.model.inverse_mass().multiply(s.p.data(), v.data());
+  return v;
+}
+
+reference::Options with_backend(const MethodChoice& c) {
+  reference::Options o = c.reference;
+  o.backend = c.backend;
+  return o;
+}
+
+class ReferenceRunner final : public Runner {
+ public:
+  ReferenceRunner(const SceneSetup& setup, reference::Method method, const MethodChoice& c)
+      : model_(setup.model),
+        integrator_(setup.model, method, with_backend(c), setup.t0, setup.q0, started_velocity(setup, c.backend)),
+        p_(setup.model.num_coordinates()) {}
+  Status advance(double t_next) override { return integrator_.advance_to(t_next); }
+  double t() const override { return integrator_.t(); }
+  ConstVecRef q() const override { return integrator_.q(); }
+  Diagnostics diagnostics() override {
+    auto& ode = integrator_.ode();
+    Diagnostics d;
+    d.energy = ode.energy(integrator_.y());
+    d.energy_post = std::numeric_limits<double>::quiet_NaN();  // no post-momentum
+    d.residual = ode.residual(integrator_.y());
+    d.gap = ode.gap(integrator_.y());
+    return d;
+  }
+  void momentum_maps(VecRef out) override {
+    model_.mass().multiply(integrator_.v().data(), p_.data());
+    const auto& maps = model_.momentum_maps();
+    for (std::size_t i = 0; i < maps.size(); ++i)
+      out[static_cast<Eigen::Index>(i)] = maps[i].map(integrator_.q(), p_);
+  }
+  std::string message() const override { return integrator_.message(); }
+  std::string backend() const override {
+    return integrator_.ode().workspace().backend_name();
+  }
+  long rhs_evaluations() const override { return integrator_.rhs_evaluations(); }
+
+ private:
+  const Model& model_;
+  reference::Integrator integrator_;
+  Vector p_;
+};
+
+}  // namespace
+
+std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& c) {
+  if (c.method == "reflection") return std::make_unique<ReflectionRunner>(setup, c);
+  reference::Method method;
+  try {
+    method = reference::method_from_string(c.method);
+  } catch (const std::invalid_argument&) {
+    throw std::invalid_argument("unknown method '" + c.method +
+                                "' (valid: reflection, rk4, arkode-dp5, arkode-verner)");
+  }
+  return std::make_unique<ReferenceRunner>(setup, method, c);
+}
+
+}  // namespace nonholo::scenarios

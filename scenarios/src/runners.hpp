@@ -1,0 +1,41 @@
+#pragma once
+// The integration methods behind `nonholo run --method`, one interface for the run loop:
+// advance one output interval, then report the configuration and the diagnostics.
+#include <nonholo/diagnostics.hpp>
+#include <nonholo/rattle.hpp>
+#include <nonholo/reference/integrators.hpp>
+#include <nonholo/scenarios/scene.hpp>
+
+#include <memory>
+#include <string>
+
+namespace nonholo::scenarios {
+
+class Runner {
+ public:
+  virtual ~Runner() = default;
+  // Integrates to t_next (one output interval later). On failure the state is the last good.
+  virtual Status advance(double t_next) = 0;
+  virtual double t() const = 0;
+  virtual ConstVecRef q() const = 0;
+  // energy, energy_post (NaN for methods without post-momenta), residual |mu v|, gap.
+  virtual Diagnostics diagnostics() = 0;
+  // J(q, p) of the model's momentum maps, p the momentum the method carries.
+  virtual void momentum_maps(VecRef out) = 0;
+  virtual std::string message() const = 0;
+  virtual std::string backend() const = 0;
+  virtual long rhs_evaluations() const { return -1; }  // -1: not counted
+};
+
+struct MethodChoice {
+  std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner
+  RattleOptions rattle;               // reflection
+  reference::Options reference;       // the others
+  sparse::Backend backend = sparse::Backend::Auto;
+};
+
+// Starts the method from the scene's consistent initial state (start_from_velocity).
+// Throws std::invalid_argument for an unknown method.
+std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& choice);
+
+}  // namespace nonholo::scenarios
