@@ -202,7 +202,7 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"fly"}, "unknown command 'fly' (commands: run)");
   expect_failure({"run", "sleigh_chain", "--hitch", "rigid"}, "unknown hitch mode 'rigid' (valid: oneform, holonomic)");
   expect_failure({"run", "sleigh", "--method", "euler"},
-                 "unknown method 'euler' (valid: reflection, rk4, arkode-dp5, arkode-verner)");
+                 "unknown method 'euler' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner)");
   expect_failure({"run", "sleigh", "--project"}, "--project applies to the methods rk4, arkode-dp5 and arkode-verner");
   expect_failure({"run", "sleigh", "--tol", "1e-6"}, "--tol applies to the methods arkode-dp5 and arkode-verner");
   expect_failure({"run", "sleigh", "--method", "rk4", "--hitch", "oneform"}, "--hitch applies to the reflection method only");

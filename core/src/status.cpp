@@ -15,6 +15,7 @@ const char* to_string(Status status) {
     case Status::LinearSolverFailure: return "linear-solver-failure";
     case Status::GapNotConverged: return "gap-not-converged";
     case Status::OdeSolverFailure: return "ode-solver-failure";
+    case Status::NewtonNotConverged: return "newton-not-converged";
   }
   return "unknown";
 }

@@ -29,8 +29,9 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
                   "factorisation of C: auto, block-diagonal, dense, cholmod-natural, cholmod-amd");
   cmd->add_option("--hitch", hitch, "hitches: holonomic (position level, default) or oneform");
   cmd->add_option("--method", run.method,
-                  "reflection (default), rk4, arkode-dp5, arkode-verner (the last three integrate "
-                  "the index-reduced equations; --dt is then RK4's step or the output interval)");
+                  "reflection (default), dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner (the "
+                  "last three integrate the index-reduced equations; --dt is then RK4's step or "
+                  "ARKODE's output interval)");
   cmd->add_flag("--project", run.project,
                 "rk4 and arkode-*: project onto the constraints (and hitches) after every step");
   cmd->add_option("--tol", run.tol, "arkode-*: relative and absolute tolerance (default 1e-8)");

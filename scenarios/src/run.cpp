@@ -80,6 +80,10 @@ class CsvWriter {
   std::vector<char> buffer_;
 };
 
+bool reference_method(const std::string& name) {
+  return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner";
+}
+
 }  // namespace
 
 std::string RunSummary::line() const {
@@ -118,7 +122,7 @@ RunSummary run_scene(const RunConfig& config) {
   choice.reference.project = config.project;
   reference::validate(choice.reference);
   const bool reflection = config.method == "reflection";
-  if (reflection && config.project)
+  if (!reference_method(config.method) && config.project)
     throw std::invalid_argument("--project applies to the methods rk4, arkode-dp5 and arkode-verner");
   if (!std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite");
   if (config.every < 1)
@@ -142,7 +146,9 @@ RunSummary run_scene(const RunConfig& config) {
   summary.method = config.method;
   summary.backend = runner->backend();
   // The reference methods treat hitch rows as velocity constraints, closed by --project.
-  summary.hitch = reflection ? to_string(config.hitch) : (config.project ? "projected" : "velocity");
+  summary.hitch = reflection ? to_string(config.hitch)
+                             : !reference_method(config.method) ? "oneform"
+                             : config.project ? "projected" : "velocity";
   summary.restart = reflection ? choice.rattle.restart_every : 0;
   summary.bodies = model.num_bodies();
   summary.dt = dt;

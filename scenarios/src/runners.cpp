@@ -1,5 +1,6 @@
 #include "runners.hpp"
 
+#include <nonholo/dla.hpp>
 #include <nonholo/start.hpp>
 
 #include <limits>
@@ -26,6 +27,54 @@ class ReflectionRunner final : public Runner {
   Workspace ws_;
   RattleOptions options_;
   State state_;
+};
+
+class DlaRunner final : public Runner {
+ public:
+  DlaRunner(const SceneSetup& setup, const MethodChoice& c, DlaConstraint constraint)
+      : model_(setup.model), ws_(setup.model, {c.backend}) {
+    options_.h = c.rattle.h;
+    options_.constraint = constraint;
+    validate(options_);
+    state_ = dla_start(start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0), options_.h);
+  }
+  Status advance(double) override { return dla_step(model_, ws_, state_, options_); }
+  double t() const override { return state_.t; }
+  ConstVecRef q() const override { return state_.q; }
+  // The energy of the last step's momentum p_{k-1/2}, with V averaged over its ends; the
+  // residual of the continuous constraint at q_k for that step's velocity.
+  Diagnostics diagnostics() override {
+    Diagnostics d;
+    d.energy = kinetic_energy(model_, state_.p, ws_.scratch_n);
+    if (model_.has_potential()) {
+      ws_.scratch_n2 = state_.q - options_.h * ws_.scratch_n;  // scratch_n holds M^-1 p
+      d.energy += 0.5 * (model_.potential(ws_.scratch_n2) + model_.potential(state_.q));
+    }
+    d.energy_post = d.energy;
+    if (model_.num_one_forms() > 0) {
+      ws_.evaluate_one_forms(state_.q);
+      model_.inverse_mass().multiply(state_.p.data(), ws_.scratch_n.data());
+      model_.mu_times(ws_.mu_values.data(), ws_.scratch_n.data(), ws_.scratch_m.data());
+      d.residual = ws_.scratch_m.lpNorm<Eigen::Infinity>();
+    }
+    if (model_.num_holonomic() > 0) {
+      model_.gap(state_.q, ws_.gap);
+      d.gap = ws_.gap.lpNorm<Eigen::Infinity>();
+    }
+    return d;
+  }
+  void momentum_maps(VecRef out) override {
+    const auto& maps = model_.momentum_maps();
+    for (std::size_t i = 0; i < maps.size(); ++i) out[static_cast<Eigen::Index>(i)] = maps[i].map(state_.q, state_.p);
+  }
+  std::string message() const override { return ws_.message(); }
+  std::string backend() const override { return ws_.backend_name(); }
+
+ private:
+  const Model& model_;
+  Workspace ws_;
+  DlaOptions options_;
+  DlaState state_;
 };
 
 // The velocity of the consistent start, M^-1 p~_0, in D(q0).
@@ -83,12 +132,14 @@ class ReferenceRunner final : public Runner {
 
 std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& c) {
   if (c.method == "reflection") return std::make_unique<ReflectionRunner>(setup, c);
+  if (c.method == "dla-midpoint") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Midpoint);
+  if (c.method == "dla-left") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Left);
   reference::Method method;
   try {
     method = reference::method_from_string(c.method);
   } catch (const std::invalid_argument&) {
     throw std::invalid_argument("unknown method '" + c.method +
-                                "' (valid: reflection, rk4, arkode-dp5, arkode-verner)");
+                                "' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner)");
   }
   return std::make_unique<ReferenceRunner>(setup, method, c);
 }

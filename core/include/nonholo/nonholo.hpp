@@ -5,6 +5,7 @@
 #include <nonholo/model.hpp>
 #include <nonholo/model_builder.hpp>
 #include <nonholo/rattle.hpp>
+#include <nonholo/dla.hpp>
 #include <nonholo/start.hpp>
 #include <nonholo/state.hpp>
 #include <nonholo/status.hpp>

@@ -15,6 +15,7 @@ enum class Status {
   LinearSolverFailure,  // the sparse solver failed (memory, size, invalid input)
   GapNotConverged,      // holonomic mode: g(q_{k+1}) = 0 not reached within the iterations
   OdeSolverFailure,     // a reference ODE solver gave up (ARKODE: too much work, error test)
+  NewtonNotConverged,   // an implicit step's Newton iteration did not converge
 };
 
 const char* to_string(Status status);

@@ -1,0 +1,108 @@
+#include <nonholo/dla.hpp>
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace nonholo {
+
+const char* to_string(DlaConstraint c) { return c == DlaConstraint::Midpoint ? "midpoint" : "left"; }
+
+void validate(const DlaOptions& o) {
+  auto fail = [](const char* what, double value, const char* rule) {
+    std::ostringstream os;
+    os << what << " = " << value << " " << rule;
+    throw std::invalid_argument(os.str());
+  };
+  if (!(o.h > 0.0) || !std::isfinite(o.h)) fail("step size h", o.h, "must be positive and finite");
+  if (!(o.newton_tolerance > 0.0) || !(o.newton_tolerance < 1.0))
+    fail("newton_tolerance", o.newton_tolerance, "must lie in (0, 1)");
+  if (o.max_newton_iterations < 1) fail("max_newton_iterations", o.max_newton_iterations, "must be at least 1");
+  if (!(o.min_pivot_ratio >= 0.0) || !(o.min_pivot_ratio < 1.0))
+    fail("min_pivot_ratio", o.min_pivot_ratio, "must lie in [0, 1)");
+}
+
+DlaState dla_start(const State& start, double h) {
+  DlaState s;
+  s.t = start.t;
+  s.q = start.q;
+  s.p = start.pre_momentum(h);
+  return s;
+}
+
+Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions& o) {
+  const int n = model.num_coordinates(), m = model.num_one_forms();
+  if (&ws.model() != &model)
+    return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model");
+  if (!(o.h > 0.0) || !std::isfinite(o.h))
+    return ws.fail(Status::InvalidStepSize, "step size h = %g must be positive and finite", o.h);
+  if (s.q.size() != n || s.p.size() != n)
+    return ws.fail(Status::SizeMismatch, "state sizes q %ld, p %ld; the model needs %d",
+                   static_cast<long>(s.q.size()), static_cast<long>(s.p.size()), n);
+  const double h = o.h;
+  const auto& minv = model.inverse_mass();
+
+  // p_half = p_{k-1/2} + h f_k (the unconstrained kick).
+  ws.p_half = s.p;
+  if (model.has_applied_force()) {
+    model.applied_force(s.t, s.q, ws.applied, ws.scratch_n);
+    ws.p_half += h * ws.applied;
+  }
+  int iterations = 0;
+  if (m > 0) {
+    Status status = ws.factorize_at(s.q, o.min_pivot_ratio);
+    if (status != Status::Ok) return status;
+    // Left point: mu_k M^-1 (p_half + h mu_k^T lambda) = 0, one solve. Also the midpoint's
+    // first iterate.
+    minv.multiply(ws.p_half.data(), ws.velocity.data());
+    model.mu_times(ws.mu_values.data(), ws.velocity.data(), ws.rhs.data());
+    ws.rhs *= -1.0 / h;
+    if ((status = ws.solve(ws.rhs.data(), ws.lambda.data())) != Status::Ok) return status;
+    model.mu_transpose_times(ws.mu_values.data(), ws.lambda.data(), ws.scratch_n.data());
+    ws.p_half += h * ws.scratch_n;
+    if (o.constraint == DlaConstraint::Midpoint) {
+      // r = mu(q_mid) M^-1 p_half, corrected with the frozen Jacobian h C(q_k).
+      double previous = std::numeric_limits<double>::infinity();
+      for (;; ++iterations) {
+        minv.multiply(ws.p_half.data(), ws.velocity.data());
+        ws.scratch_n2 = s.q + (0.5 * h) * ws.velocity;  // q_mid
+        model.one_form_values(ws.scratch_n2, ws.scratch_nnz);
+        model.mu_times(ws.scratch_nnz.data(), ws.velocity.data(), ws.rhs.data());
+        // Scale of each row: sum_i |mu_ai v_i|.
+        const auto& pattern = model.one_form_pattern();
+        double worst = 0.0;
+        for (int r = 0; r < m; ++r) {
+          double scale = 0.0;
+          for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
+            scale += std::abs(ws.scratch_nnz[k] * ws.velocity[pattern.col_idx[k]]);
+          const double rel = std::abs(ws.rhs[r]) / (scale > 0.0 ? scale : 1.0);
+          worst = std::isnan(rel) ? rel : std::max(worst, rel);
+        }
+        if (!std::isfinite(worst))
+          return ws.fail(Status::NonFiniteState, "midpoint constraint residual is %g", worst);
+        if (worst <= o.newton_tolerance || (worst >= previous && worst <= 1e3 * o.newton_tolerance)) break;
+        if (iterations == o.max_newton_iterations)
+          return ws.fail(Status::NewtonNotConverged,
+                         "midpoint constraints: relative residual %.3g after %d iterations", worst, iterations);
+        previous = worst;
+        ws.rhs *= -1.0 / h;
+        if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
+        model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
+        ws.p_half += h * ws.scratch_n;
+      }
+    }
+  }
+  minv.multiply(ws.p_half.data(), ws.velocity.data());
+  ws.q_next = s.q + h * ws.velocity;
+  if (!std::isfinite(ws.q_next.sum() + ws.p_half.sum()))
+    return ws.fail(Status::NonFiniteState, "the step from t = %.17g produced NaN or Inf", s.t);
+  s.q.swap(ws.q_next);
+  s.p.swap(ws.p_half);
+  s.t += h;
+  s.newton_iterations = iterations;
+  ws.clear_message();
+  return Status::Ok;
+}
+
+}  // namespace nonholo
