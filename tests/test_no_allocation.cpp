@@ -1,6 +1,8 @@
 // No allocation inside a step, for every backend: the process's malloc is counted while
 // steps (and the per-step diagnostics the command line uses) run.
 #include <nonholo/diagnostics.hpp>
+#include <nonholo/dla.hpp>
+#include <nonholo/implicit.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
@@ -63,8 +65,8 @@ TEST(NoAllocation, ScenesOnEveryBackend) {
       {"sleigh_chain", {"bodies=12"}},
       {"sleigh_chain", {"bodies=12", "hitched=0", "k=1"}},  // C diagonal
       {"wheeled_train", {"bodies=12"}},
-  };
-  ASSERT_EQ(scenarios::scene_catalogue().size(), 5u) << "a new scene needs a case here";
+  };  // sleigh_contact: see ImplicitGeneralForm
+  ASSERT_EQ(scenarios::scene_catalogue().size(), 6u) << "a new scene needs a case here";
   for (const auto& c : cases) {
     const auto& info = scenarios::find_scene(c.scene);
     scenarios::Parameters p = info.defaults();
@@ -86,6 +88,39 @@ TEST(NoAllocation, ScenesOnEveryBackend) {
             << sparse::to_string(backend) << ", hitch " << to_string(hitch);
       }
     EXPECT_GE(served, 3) << c.scene;
+  }
+}
+
+// sleigh_contact (configuration metric): the implicit general form.
+TEST(NoAllocation, ImplicitGeneralForm) {
+  const auto& info = scenarios::find_scene("sleigh_contact");
+  const auto setup = info.build(info.defaults());
+  ImplicitWorkspace ws(setup.model);
+  ImplicitOptions o;
+  ImplicitState s = implicit_start(setup.model, ws, 0.0, setup.q0, setup.v0, o);
+  ASSERT_EQ(implicit_step(setup.model, ws, s, o), Status::Ok);
+  testing::start_counting_allocations();
+  for (int k = 0; k < 200; ++k)
+    if (implicit_step(setup.model, ws, s, o) != Status::Ok) break;
+  EXPECT_EQ(testing::stop_counting_allocations(), 0);
+  EXPECT_NEAR(s.t, 2.01, 1e-9) << "all steps ran";
+}
+
+// The DLA baseline (both constraint discretisations).
+TEST(NoAllocation, DlaBaseline) {
+  const auto& info = scenarios::find_scene("sleigh_chain");
+  const auto setup = info.build(info.defaults());
+  for (DlaConstraint c : {DlaConstraint::Midpoint, DlaConstraint::Left}) {
+    Workspace ws(setup.model);
+    DlaOptions o;
+    o.constraint = c;
+    DlaState s = dla_start(start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0), o.h);
+    ASSERT_EQ(dla_step(setup.model, ws, s, o), Status::Ok);
+    testing::start_counting_allocations();
+    for (int k = 0; k < 200; ++k)
+      if (dla_step(setup.model, ws, s, o) != Status::Ok) break;
+    EXPECT_EQ(testing::stop_counting_allocations(), 0) << to_string(c);
+    EXPECT_NEAR(s.t, 2.01, 1e-9) << "all steps ran";
   }
 }
 

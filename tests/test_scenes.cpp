@@ -110,7 +110,7 @@ TEST(Scenes, ParametersAreValidated) {
   expect([] { build("sleigh", {"m=1e999"}); }, "out of the range of a double");
   expect([] { build("sleigh", {"m=-1"}); }, "sleigh: parameter m = -1 must be positive");
   expect([] { build("snakeboard", {"J1=0"}); }, "snakeboard: parameter J1 = 0 must be positive");
-  expect([] { scenarios::find_scene("sleighs"); }, "unknown scene 'sleighs' (known: particle, sleigh, snakeboard, sleigh_chain, wheeled_train)");
+  expect([] { scenarios::find_scene("sleighs"); }, "unknown scene 'sleighs' (known: particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train)");
   EXPECT_NO_THROW(build("sleigh", {"m=+2.5", "a=-0.1", "I=1e-3"}));
 }
 

@@ -3,6 +3,6 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 nonholo_build nonholo_cli
-for scene in particle sleigh snakeboard sleigh_chain wheeled_train; do
+for scene in particle sleigh sleigh_contact snakeboard sleigh_chain wheeled_train; do
   "$NONHOLO_BUILD/nonholo" run "$scene"
 done

@@ -40,6 +40,8 @@ Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions
   if (s.q.size() != n || s.p.size() != n)
     return ws.fail(Status::SizeMismatch, "state sizes q %ld, p %ld; the model needs %d",
                    static_cast<long>(s.q.size()), static_cast<long>(s.p.size()), n);
+  if (model.has_configuration_metric())
+    return ws.fail(Status::MethodNotApplicable, "the DLA baseline here needs a constant metric");
   const double h = o.h;
   const auto& minv = model.inverse_mass();
 

@@ -148,6 +148,13 @@ ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap ma
   return *this;
 }
 
+ModelBuilder& ModelBuilder::configuration_metric(MetricValue value, MetricDerivative derivative) {
+  if (!value || !derivative) fail("configuration_metric: give both the metric and its derivative");
+  draft_.metric_ = std::move(value);
+  draft_.metric_derivative_ = std::move(derivative);
+  return *this;
+}
+
 Model ModelBuilder::build() const {
   if (draft_.bodies_.empty()) fail("the model has no bodies");
   const int n = static_cast<int>(draft_.names_.size());

@@ -132,6 +132,9 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
                    "state sizes q %ld, p %ld, force %ld, lambda %ld; the model needs %d, %d, %d, %d",
                    static_cast<long>(s.q.size()), static_cast<long>(s.p.size()),
                    static_cast<long>(s.force.size()), static_cast<long>(s.lambda.size()), n, n, n, m);
+  if (model.has_configuration_metric())
+    return ws.fail(Status::MethodNotApplicable,
+                   "the explicit step needs a constant metric; use implicit_step (implicit.hpp)");
   const double half = 0.5 * h;
   const double t_next = s.t + h;
   const auto& minv = model.inverse_mass();

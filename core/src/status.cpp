@@ -16,6 +16,7 @@ const char* to_string(Status status) {
     case Status::GapNotConverged: return "gap-not-converged";
     case Status::OdeSolverFailure: return "ode-solver-failure";
     case Status::NewtonNotConverged: return "newton-not-converged";
+    case Status::MethodNotApplicable: return "method-not-applicable";
   }
   return "unknown";
 }

@@ -4,11 +4,14 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace nonholo::reference {
 
 IndexReducedOde::IndexReducedOde(const Model& model, const WorkspaceOptions& options)
     : model_(&model), ws_(model, options) {
+  if (model.has_configuration_metric())
+    throw std::invalid_argument("the reference integrators need a constant metric (this model's depends on q)");
   const int n = model.num_coordinates();
   q_.setZero(n);
   v_.setZero(n);

@@ -17,7 +17,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   RunConfig run;
   std::string backend = "auto", hitch = "holonomic";
   auto* cmd = app.add_subcommand("run", "integrate one scene and print a summary line");
-  cmd->add_option("scene", run.scene, "scene name (particle, sleigh, snakeboard, sleigh_chain, wheeled_train)")->required();
+  cmd->add_option("scene", run.scene, "scene name (particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train)")->required();
   cmd->add_option("--dt", run.dt, "time step (default: the scene's)");
   cmd->add_option("--t-end", run.t_end, "final time (default: the scene's)");
   cmd->add_option("--set", run.assignments, "set a scene parameter, NAME=VALUE (repeatable)")

@@ -5,7 +5,8 @@
 namespace nonholo::scenarios {
 
 const std::vector<SceneInfo>& scene_catalogue() {
-  static const std::vector<SceneInfo> scenes{particle_scene(), sleigh_scene(), snakeboard_scene(),
+  static const std::vector<SceneInfo> scenes{particle_scene(), sleigh_scene(), sleigh_contact_scene(),
+                                               snakeboard_scene(),
                                                sleigh_chain_scene(), wheeled_train_scene()};
   return scenes;
 }

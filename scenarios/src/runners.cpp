@@ -1,6 +1,7 @@
 #include "runners.hpp"
 
 #include <nonholo/dla.hpp>
+#include <nonholo/implicit.hpp>
 #include <nonholo/start.hpp>
 
 #include <limits>
@@ -77,6 +78,51 @@ class DlaRunner final : public Runner {
   DlaState state_;
 };
 
+// The general implicit form, for models with a configuration-dependent metric.
+class ImplicitRunner final : public Runner {
+ public:
+  ImplicitRunner(const SceneSetup& setup, const MethodChoice& c) : model_(setup.model), ws_(setup.model) {
+    options_.h = c.rattle.h;
+    options_.min_pivot_ratio = c.rattle.min_pivot_ratio;
+    state_ = implicit_start(model_, ws_, setup.t0, setup.q0, setup.v0, options_);
+    average_.setZero(model_.num_coordinates());
+    reflected_.setZero(model_.num_coordinates());
+  }
+  Status advance(double) override { return implicit_step(model_, ws_, state_, options_); }
+  double t() const override { return state_.t; }
+  ConstVecRef q() const override { return state_.q; }
+  // energy of the average momentum P* p+, energy_post of the arriving momentum p+, both with
+  // M(q_k); the residual of the average momentum.
+  Diagnostics diagnostics() override {
+    Diagnostics d;
+    if (ws_.reflect(state_.q, state_.p, average_, reflected_, 0.0) != Status::Ok) {
+      d.energy = d.energy_post = d.residual = std::numeric_limits<double>::quiet_NaN();
+      return d;
+    }
+    const double v = model_.potential(state_.q);
+    d.energy = ws_.kinetic_energy(state_.q, average_) + v;
+    d.energy_post = ws_.kinetic_energy(state_.q, state_.p) + v;
+    if (model_.num_one_forms() > 0) {
+      ws_.y = ws_.metric_llt.solve(average_);
+      d.residual = (ws_.mu * ws_.y).lpNorm<Eigen::Infinity>();
+    }
+    return d;
+  }
+  void momentum_maps(VecRef out) override {
+    const auto& maps = model_.momentum_maps();
+    for (std::size_t i = 0; i < maps.size(); ++i) out[static_cast<Eigen::Index>(i)] = maps[i].map(state_.q, state_.p);
+  }
+  std::string message() const override { return ws_.message(); }
+  std::string backend() const override { return "dense-implicit"; }
+
+ private:
+  const Model& model_;
+  ImplicitWorkspace ws_;
+  ImplicitOptions options_;
+  ImplicitState state_;
+  Vector average_, reflected_;
+};
+
 // The velocity of the consistent start, M^-1 p~_0, in D(q0).
 Vector started_velocity(const SceneSetup& setup, sparse::Backend backend) {
   Workspace ws(setup.model, {backend});
@@ -131,6 +177,12 @@ class ReferenceRunner final : public Runner {
 }  // namespace
 
 std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& c) {
+  if (setup.model.has_configuration_metric()) {
+    if (c.method == "reflection") return std::make_unique<ImplicitRunner>(setup, c);
+    throw std::invalid_argument("method " + c.method +
+                                " needs a constant metric; this scene's depends on q (use reflection, "
+                                "the implicit general form)");
+  }
   if (c.method == "reflection") return std::make_unique<ReflectionRunner>(setup, c);
   if (c.method == "dla-midpoint") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Midpoint);
   if (c.method == "dla-left") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Left);

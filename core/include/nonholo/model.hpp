@@ -53,6 +53,12 @@ class Model {
 
   const std::vector<NamedMomentumMap>& momentum_maps() const { return momentum_maps_; }
 
+  // A configuration-dependent metric replaces mass() (which then holds M(q0) only): the
+  // explicit integrators refuse such a model, the implicit general form (implicit.hpp) uses it.
+  bool has_configuration_metric() const { return static_cast<bool>(metric_); }
+  void metric(ConstVecRef q, MatRef m) const { metric_(q, m); }
+  void metric_derivative(ConstVecRef q, int i, MatRef dm) const { metric_derivative_(q, i, dm); }
+
   // Holonomic constraints g(q) = 0 (hitches): the rows of mu that are their gradients, in
   // declaration order, and the gaps g(q) (one per such row). Integrators may treat them as
   // plain one-forms or enforce g = 0 at position level (see RattleOptions::hitch). Call
@@ -81,6 +87,8 @@ class Model {
   ExternalForce force_;
   std::vector<NamedMomentumMap> momentum_maps_;
   std::vector<int> holonomic_rows_;
+  MetricValue metric_;
+  MetricDerivative metric_derivative_;
   ConstraintGap gap_;
 };
 

@@ -38,6 +38,9 @@ class ModelBuilder {
   ModelBuilder& potential(Potential value, PotentialGradient gradient);
   ModelBuilder& external_force(ExternalForce force);
   ModelBuilder& momentum_map(const std::string& name, MomentumMap map);
+  // M(q) and dM/dq_i over all coordinates (see Model::has_configuration_metric). The bodies'
+  // mass blocks should be M(q0): the set-up code and the diagnostics of q0 use them.
+  ModelBuilder& configuration_metric(MetricValue value, MetricDerivative derivative);
 
   Model build() const;
 

@@ -16,6 +16,7 @@ enum class Status {
   GapNotConverged,      // holonomic mode: g(q_{k+1}) = 0 not reached within the iterations
   OdeSolverFailure,     // a reference ODE solver gave up (ARKODE: too much work, error test)
   NewtonNotConverged,   // an implicit step's Newton iteration did not converge
+  MethodNotApplicable,  // e.g. an explicit method on a model with a configuration metric
 };
 
 const char* to_string(Status status);

@@ -22,6 +22,12 @@ using ExternalForce = std::function<void(double t, ConstVecRef q, VecRef force)>
 // The gaps g(q) of the holonomic constraints (hitches), one entry per holonomic row, in
 // the order the rows were declared. Those rows of mu must be the gradients dg/dq.
 using ConstraintGap = std::function<void(ConstVecRef q, VecRef gap)>;
+// A configuration-dependent metric M(q) (dense n x n, SPD) and its partial derivative
+// dM/dq_i, for systems whose kinetic energy is not constant in the chosen coordinates (the
+// sleigh in contact-point coordinates). Integrated by the implicit general form only.
+using MatRef = Eigen::Ref<Eigen::MatrixXd>;
+using MetricValue = std::function<void(ConstVecRef q, MatRef metric)>;
+using MetricDerivative = std::function<void(ConstVecRef q, int i, MatRef derivative)>;
 // A scalar momentum map J(q, p), for example <p, xi_Q(q)> for a symmetry xi.
 using MomentumMap = std::function<double(ConstVecRef q, ConstVecRef p)>;
 

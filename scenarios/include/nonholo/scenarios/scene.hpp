@@ -32,6 +32,7 @@ struct SceneInfo {
 
 SceneInfo particle_scene();
 SceneInfo sleigh_scene();
+SceneInfo sleigh_contact_scene();
 SceneInfo snakeboard_scene();
 SceneInfo sleigh_chain_scene();
 SceneInfo wheeled_train_scene();

@@ -1,0 +1,71 @@
+#pragma once
+// The general form of the method (DESIGN.md section 2, first display) for a configuration-
+// dependent metric M(q), with the midpoint discrete Lagrangian
+//   Ld(q0, q1) = (1/2h) (q1 - q0)^T M((q0 + q1)/2) (q1 - q0) - (h/2)(V(q0) + V(q1)):
+//   p-_k = (P - Q)*_{q_k} p+_k,   -D1 Ld(q_k, q_{k+1}) - (h/2) F_k = p-_k   (Newton for q_{k+1}),
+//   p+_{k+1} = D2 Ld(q_k, q_{k+1}) + (h/2) F_{k+1},
+// with the projectors M(q_k)-orthogonal. For a constant metric it is the explicit RATTLE of
+// rattle.hpp; use this one for models with ModelBuilder::configuration_metric. Dense linear
+// algebra: meant for small systems.
+#include <nonholo/model.hpp>
+#include <nonholo/sparse/message.hpp>
+#include <nonholo/status.hpp>
+
+#include <cstdarg>
+
+#include <Eigen/Dense>
+
+namespace nonholo {
+
+struct ImplicitOptions {
+  double h = 0.01;
+  // Newton stops when the residual of the momentum equation is below newton_tolerance times
+  // its scale (|M Delta / h| + |p-|), or when round-off stops its decrease ...
+  double newton_tolerance = 1e-14;
+  int max_newton_iterations = 30;  // ... or fails with Status::NewtonNotConverged.
+  double min_pivot_ratio = 1e-12;
+};
+void validate(const ImplicitOptions& options);  // throws std::invalid_argument
+
+// (t_k, q_k, p+_k): the momentum arriving at q_k.
+struct ImplicitState {
+  double t = 0.0;
+  Vector q, p;
+  int newton_iterations = 0;  // taken by the last step
+};
+
+// Dense buffers sized once from the model (n coordinates, m one-forms).
+class ImplicitWorkspace {
+ public:
+  explicit ImplicitWorkspace(const Model& model);
+  const Model& model() const { return *model_; }
+  const char* message() const { return message_.c_str(); }
+  Status fail(Status status, const char* format, ...) __attribute__((format(printf, 3, 4)));
+
+  // The average momentum P* p+ at q (in `average`) and the reflected (P - Q)* p+ (in
+  // `reflected`); fails on dependent one-forms.
+  Status reflect(ConstVecRef q, ConstVecRef p_plus, VecRef average, VecRef reflected, double min_pivot_ratio);
+  // (1/2) p^T M(q)^-1 p.
+  double kinetic_energy(ConstVecRef q, ConstVecRef p);
+
+  Eigen::MatrixXd metric, dmetric, jacobian, mu, w, c;
+  Eigen::LLT<Eigen::MatrixXd> metric_llt, c_llt;
+  Eigen::PartialPivLU<Eigen::MatrixXd> jacobian_lu;
+  Vector delta, residual, rhs, terms, q_mid, q_next, p_minus, p_next, force, scratch, mu_values, lambda, y;
+
+ private:
+  const Model* model_;
+  sparse::Message message_;
+};
+
+// Consistent start from a velocity guess: p~_0 = M(q0) v projected M(q0)-orthogonally onto
+// D(q0), lambda(0) of the index-reduced equations (with the metric's Christoffel terms), and
+// p+_0 = p~_0 - (h/2)(f_0 + mu_0^T lambda(0)). Throws on bad sizes or dependent one-forms.
+ImplicitState implicit_start(const Model& model, ImplicitWorkspace& ws, double t0, ConstVecRef q0,
+                             ConstVecRef v_guess, const ImplicitOptions& options);
+
+// One step; never throws or allocates; on failure the state is unchanged.
+Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& state,
+                     const ImplicitOptions& options);
+
+}  // namespace nonholo
