@@ -199,7 +199,7 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"run", "sleigh", "--frobnicate"}, "frobnicate");
   expect_failure({"run"}, "scene");
   expect_failure({}, "subcommand");
-  expect_failure({"fly"}, "unknown command 'fly' (commands: run)");
+  expect_failure({"fly"}, "unknown command 'fly' (commands: run, wp)");
   expect_failure({"run", "sleigh_chain", "--hitch", "rigid"}, "unknown hitch mode 'rigid' (valid: oneform, holonomic)");
   expect_failure({"run", "sleigh", "--method", "euler"},
                  "unknown method 'euler' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner)");
@@ -232,6 +232,35 @@ TEST(CommandLine, FailedStepStopsTheRunKeepsTheCsvAndExitsWithTwo) {
   EXPECT_THAT(row0, StartsWith("0,"));
   EXPECT_FALSE(std::getline(in, more)) << "only the initial row";
   std::remove(path.c_str());
+}
+
+// `nonholo wp --quick` writes every CSV with its header and one row per method point.
+TEST(CommandLine, WorkPrecisionWritesItsTables) {
+  const std::string dir = temp_path("wp");
+  const Result r = run({"wp", "--quick", "--out", dir});
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* name : {"work_precision.csv", "long_time.csv", "paper_particle_energy.csv",
+                           "paper_sleigh_error.csv", "paper_snakeboard_path.csv"}) {
+    std::ifstream in(dir + "/" + name);
+    ASSERT_TRUE(in) << name;
+    std::string header, row;
+    std::getline(in, header);
+    EXPECT_TRUE(std::getline(in, row)) << name << " has no rows";
+  }
+  std::ifstream in(dir + "/work_precision.csv");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "scene,method,project,h,tol,cpu_s,rhs_evals,steps,error,energy_err,energy_post_err,residual,status");
+  int rows = 0, ok = 0;
+  while (std::getline(in, line)) {
+    ++rows;
+    ok += line.size() > 3 && line.compare(line.size() - 3, 3, ",ok") == 0;
+  }
+  // quick: 2 scenes x (4 methods x 2 steps + rk4+project x 2 + 3 ARKODE series x 1 tolerance).
+  EXPECT_EQ(rows, 2 * (8 + 2 + 3));
+  EXPECT_EQ(ok, rows);
+  std::filesystem::remove_all(dir);
+  expect_failure({"wp", "--out", "/proc/nonholo-cannot-write-here"}, "nonholo wp: cannot create");
 }
 
 TEST(CommandLine, HelpExitsWithZero) {

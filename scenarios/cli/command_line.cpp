@@ -1,6 +1,7 @@
 #include <nonholo/scenarios/command_line.hpp>
 
 #include <nonholo/scenarios/run.hpp>
+#include <nonholo/scenarios/work_precision.hpp>
 
 #include <CLI/CLI.hpp>
 
@@ -39,9 +40,14 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
                   "reset the multipliers to the continuous ones every K steps (0: never; "
                   "default: the scene's)");
 
+  WorkPrecisionConfig wp;
+  auto* wp_cmd = app.add_subcommand("wp", "work-precision study of every method: CSV files for tools/work_precision.py");
+  wp_cmd->add_option("--out", wp.directory, "directory for the CSV files (default wp)");
+  wp_cmd->add_flag("--quick", wp.quick, "a few points only (seconds instead of minutes)");
+
   // CLI11 would only say that a subcommand is required; name the unknown word instead.
-  if (argc > 1 && argv[1][0] != '-' && std::string(argv[1]) != "run") {
-    err << "nonholo: unknown command '" << argv[1] << "' (commands: run)" << std::endl;
+  if (argc > 1 && argv[1][0] != '-' && std::string(argv[1]) != "run" && std::string(argv[1]) != "wp") {
+    err << "nonholo: unknown command '" << argv[1] << "' (commands: run, wp)" << std::endl;
     return 1;
   }
   try {
@@ -51,6 +57,15 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     return code == 0 ? 0 : 1;
   }
 
+  if (wp_cmd->parsed()) {
+    try {
+      run_work_precision(wp, err);
+    } catch (const std::exception& e) {
+      err << "nonholo wp: " << e.what() << std::endl;
+      return 1;
+    }
+    return 0;
+  }
   try {
     if (cmd->count("--dt") && !(run.dt > 0.0))
       throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");

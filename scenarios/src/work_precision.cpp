@@ -1,0 +1,274 @@
+#include <nonholo/scenarios/work_precision.hpp>
+
+#include <nonholo/scenarios/exact_solutions.hpp>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <ostream>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "runners.hpp"
+
+namespace nonholo::scenarios {
+namespace {
+
+double cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+struct Sample {
+  double t;
+  Vector q;
+  Diagnostics d;
+};
+
+struct Trajectory {
+  std::vector<Sample> samples;  // at t0 and every sample_dt
+  double cpu_s = 0.0;
+  long rhs = -1;
+  long steps = 0;
+  Status status = Status::Ok;
+  std::string message;
+};
+
+// Integrates with steps (or output intervals) of `choice`'s h, sampling every sample_dt.
+Trajectory integrate(const SceneSetup& setup, const MethodChoice& choice, double t_end, double sample_dt) {
+  Trajectory out;
+  auto runner = make_runner(setup, choice);
+  const double dt = choice.method.rfind("arkode", 0) == 0 ? sample_dt : choice.rattle.h;
+  const long steps = std::lround(t_end / dt), every = std::max(1L, std::lround(sample_dt / dt));
+  const double t0 = runner->t();
+  out.samples.push_back({runner->t(), runner->q(), runner->diagnostics()});
+  double sampling = 0.0;
+  const double start = cpu_seconds();
+  for (long k = 1; k <= steps; ++k) {
+    out.status = runner->advance(t0 + static_cast<double>(k) * dt);
+    if (out.status != Status::Ok) {
+      out.message = runner->message();
+      break;
+    }
+    out.steps = k;
+    if (k % every == 0) {
+      const double s0 = cpu_seconds();
+      out.samples.push_back({runner->t(), runner->q(), runner->diagnostics()});
+      sampling += cpu_seconds() - s0;
+    }
+  }
+  out.cpu_s = cpu_seconds() - start - sampling;
+  out.rhs = runner->rhs_evaluations();
+  return out;
+}
+
+double relative(double value, double reference) {
+  return reference != 0.0 ? std::abs(value - reference) / std::abs(reference) : std::abs(value - reference);
+}
+
+SceneSetup build(const std::string& scene, const std::vector<std::string>& sets) {
+  const SceneInfo& info = find_scene(scene);
+  Parameters p = info.defaults();
+  for (const auto& s : sets) p.assign(s);
+  return info.build(p);
+}
+
+struct Case {
+  std::string scene;
+  std::vector<std::string> sets;
+  std::string label;
+};
+
+// The oracle's configuration at the sample times: the exact solution where DESIGN.md
+// section 6 gives one, otherwise ARKODE (Verner 6(5)) at tolerance 1e-12.
+std::vector<Vector> oracle(const Case& c, const SceneSetup& setup, double t_end, double sample_dt) {
+  std::vector<Vector> out;
+  const long n = std::lround(t_end / sample_dt);
+  if (c.scene == "sleigh" && c.sets.empty()) {
+    const SleighExact exact(1.0, 1.0, 0.2, 1.0, 1.0, 0.0, 0.0, 0.0);
+    for (long k = 0; k <= n; ++k) out.push_back(exact.configuration(static_cast<double>(k) * sample_dt));
+    return out;
+  }
+  if (c.scene == "particle" && c.sets.empty()) {
+    const ParticleExact exact(0.0, 0.0, 0.0, 1.0, 1.0);
+    for (long k = 0; k <= n; ++k) out.push_back(exact.configuration(static_cast<double>(k) * sample_dt));
+    return out;
+  }
+  MethodChoice reference;
+  reference.method = "arkode-verner";
+  reference.reference.tol = 1e-12;
+  const Trajectory t = integrate(setup, reference, t_end, sample_dt);
+  if (t.status != Status::Ok) throw std::runtime_error("oracle failed for " + c.label + ": " + t.message);
+  for (const auto& s : t.samples) out.push_back(s.q);
+  return out;
+}
+
+std::ofstream open(const std::filesystem::path& path) {
+  std::ofstream f(path);
+  if (!f) throw std::invalid_argument("cannot open '" + path.string() + "' for writing: " + std::strerror(errno));
+  f.precision(10);
+  return f;
+}
+
+struct MethodPoint {
+  std::string method;
+  bool project;
+  double h, tol;
+};
+
+void work_precision_table(const WorkPrecisionConfig& config, std::ostream& log) {
+  const double t_end = 10.0, sample_dt = 0.5;
+  std::vector<Case> cases{{"particle", {}, "particle"},
+                          {"sleigh", {}, "sleigh"},
+                          {"snakeboard", {}, "snakeboard"},
+                          {"sleigh_chain", {"bodies=100"}, "sleigh_chain_100"}};
+  std::vector<double> steps{0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
+  std::vector<double> tols{1e-4, 1e-6, 1e-8, 1e-10, 1e-12};
+  if (config.quick) {
+    steps = {0.05, 0.02};
+    tols = {1e-6};
+    cases.resize(2);
+  }
+  std::vector<MethodPoint> points;
+  for (const char* m : {"reflection", "dla-midpoint", "dla-left", "rk4"})
+    for (double h : steps) points.push_back({m, false, h, 0.0});
+  for (double h : steps) points.push_back({"rk4", true, h, 0.0});
+  for (const char* m : {"arkode-dp5", "arkode-verner"})
+    for (double tol : tols) points.push_back({m, false, 0.0, tol});
+  for (double tol : tols) points.push_back({"arkode-dp5", true, 0.0, tol});
+
+  auto csv = open(std::filesystem::path(config.directory) / "work_precision.csv");
+  csv << "scene,method,project,h,tol,cpu_s,rhs_evals,steps,error,energy_err,energy_post_err,residual,status\n";
+  for (const Case& c : cases) {
+    const SceneSetup setup = build(c.scene, c.sets);
+    const auto truth = oracle(c, setup, t_end, sample_dt);
+    for (const MethodPoint& pt : points) {
+      MethodChoice choice;
+      choice.method = pt.method;
+      choice.rattle.h = pt.h > 0.0 ? pt.h : 0.01;
+      choice.reference.h = choice.rattle.h;
+      choice.reference.tol = pt.tol > 0.0 ? pt.tol : 1e-8;
+      choice.reference.project = pt.project;
+      const Trajectory tr = integrate(setup, choice, t_end, sample_dt);
+      double error = 0.0, energy = 0.0, energy_post = 0.0, residual = 0.0;
+      const Diagnostics& d0 = tr.samples.front().d;
+      for (std::size_t k = 0; k < tr.samples.size() && k < truth.size(); ++k) {
+        const Sample& s = tr.samples[k];
+        error = std::max(error, (s.q - truth[k]).lpNorm<Eigen::Infinity>());
+        energy = std::max(energy, relative(s.d.energy, d0.energy));
+        energy_post = std::isnan(d0.energy_post) ? d0.energy_post
+                                                 : std::max(energy_post, relative(s.d.energy_post, d0.energy_post));
+        residual = std::max(residual, s.d.residual);
+      }
+      if (tr.status != Status::Ok) error = std::numeric_limits<double>::quiet_NaN();
+      csv << c.label << "," << pt.method << "," << (pt.project ? 1 : 0) << "," << pt.h << "," << pt.tol << ","
+          << tr.cpu_s << "," << tr.rhs << "," << tr.steps << "," << error << "," << energy << "," << energy_post
+          << "," << residual << "," << to_string(tr.status) << "\n";
+      log << "wp " << c.label << " " << pt.method << (pt.project ? "+project" : "") << " h=" << pt.h
+          << " tol=" << pt.tol << ": error " << error << ", cpu " << tr.cpu_s << " s\n";
+    }
+  }
+}
+
+void long_time(const WorkPrecisionConfig& config, std::ostream& log) {
+  auto csv = open(std::filesystem::path(config.directory) / "long_time.csv");
+  csv << "scene,method,t,energy_err,energy_post_err,residual\n";
+  struct Run {
+    Case c;
+    double t_end, sample;
+    std::vector<MethodChoice> methods;
+  };
+  auto method = [](const char* name, int restart = 0) {
+    MethodChoice m;
+    m.method = name;
+    m.rattle.restart_every = restart;
+    m.reference.tol = 1e-8;
+    return m;
+  };
+  const std::vector<MethodChoice> all{method("reflection"), method("reflection", 100), method("dla-midpoint"),
+                                      method("rk4"), method("arkode-dp5")};
+  std::vector<Run> runs{{{"sleigh", {}, "sleigh"}, config.quick ? 50.0 : 1e4, config.quick ? 1.0 : 10.0, all},
+                        {{"sleigh_chain", {"bodies=100"}, "sleigh_chain_100"}, config.quick ? 5.0 : 1e3, 1.0, all}};
+  for (const Run& r : runs) {
+    const SceneSetup setup = build(r.c.scene, r.c.sets);
+    for (const MethodChoice& m : r.methods) {
+      const Trajectory tr = integrate(setup, m, r.t_end, r.sample);
+      const std::string label = m.method + (m.rattle.restart_every > 0 ? "+restart" : "");
+      const Diagnostics& d0 = tr.samples.front().d;
+      for (const Sample& s : tr.samples)
+        csv << r.c.label << "," << label << "," << s.t << "," << relative(s.d.energy, d0.energy) << ","
+            << relative(s.d.energy_post, d0.energy_post) << "," << s.d.residual << "\n";
+      log << "long " << r.c.label << " " << label << " to t = " << tr.samples.back().t << ": "
+          << to_string(tr.status) << ", cpu " << tr.cpu_s << " s\n";
+    }
+  }
+}
+
+// The paper's section 6: the particle's energy (ours and DLA), the sleigh's error against the
+// continuous trajectory (ours, DLA midpoint and left point), the controlled snakeboard's path.
+void paper(const WorkPrecisionConfig& config, std::ostream& log) {
+  const std::filesystem::path dir(config.directory);
+  {
+    auto csv = open(dir / "paper_particle_energy.csv");
+    csv << "method,t,energy\n";
+    const SceneSetup setup = build("particle", {});
+    for (const char* name : {"reflection", "dla-midpoint"}) {
+      MethodChoice m;
+      m.method = name;
+      m.rattle.h = 0.1;
+      const Trajectory tr = integrate(setup, m, config.quick ? 10.0 : 100.0, 0.1);
+      for (const Sample& s : tr.samples) csv << name << "," << s.t << "," << s.d.energy_post << "\n";
+    }
+  }
+  {
+    auto csv = open(dir / "paper_sleigh_error.csv");
+    csv << "method,t,error\n";
+    const SceneSetup setup = build("sleigh", {});
+    const SleighExact exact(1.0, 1.0, 0.2, 1.0, 1.0, 0.0, 0.0, 0.0);
+    for (const char* name : {"reflection", "dla-midpoint", "dla-left"}) {
+      MethodChoice m;
+      m.method = name;
+      m.rattle.h = 0.05;
+      const Trajectory tr = integrate(setup, m, 10.0, 0.05);
+      for (const Sample& s : tr.samples)
+        csv << name << "," << s.t << "," << (s.q - exact.configuration(s.t)).norm() << "\n";
+    }
+  }
+  {
+    // From rest, rider and axle torques sinusoidal with the same frequency and phase.
+    auto csv = open(dir / "paper_snakeboard_path.csv");
+    csv << "t,x,y,theta,psi,phi\n";
+    const SceneSetup setup = build("snakeboard", {"v0=0", "psi_dot0=0", "phi_dot0=0", "phi0=0", "u_psi_amp=0.2",
+                                                  "u_phi_amp=0.2", "u_psi_omega=2", "u_phi_omega=2"});
+    MethodChoice m;
+    m.rattle.h = 0.01;
+    const Trajectory tr = integrate(setup, m, config.quick ? 5.0 : 30.0, 0.05);
+    for (const Sample& s : tr.samples) {
+      csv << s.t;
+      for (Eigen::Index i = 0; i < s.q.size(); ++i) csv << "," << s.q[i];
+      csv << "\n";
+    }
+    log << "paper snakeboard: " << to_string(tr.status) << " to t = " << tr.samples.back().t << ", x = "
+        << tr.samples.back().q[0] << "\n";
+  }
+}
+
+}  // namespace
+
+void run_work_precision(const WorkPrecisionConfig& config, std::ostream& log) {
+  std::error_code ec;
+  std::filesystem::create_directories(config.directory, ec);
+  if (ec) throw std::invalid_argument("cannot create '" + config.directory + "': " + ec.message());
+  work_precision_table(config, log);
+  long_time(config, log);
+  paper(config, log);
+}
+
+}  // namespace nonholo::scenarios
