@@ -2,6 +2,7 @@
 // (checked against their geometric meaning), analytic bias terms against a finite
 // difference of the rows, and parameter handling.
 #include <nonholo/dynamics.hpp>
+#include <nonholo/rattle.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
@@ -9,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 
 #include "support/dense_reference.hpp"
 #include "support/expect_error.hpp"
@@ -112,6 +114,29 @@ TEST(Scenes, ParametersAreValidated) {
   expect([] { build("snakeboard", {"J1=0"}); }, "snakeboard: parameter J1 = 0 must be positive");
   expect([] { scenarios::find_scene("sleighs"); }, "unknown scene 'sleighs' (known: particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train)");
   EXPECT_NO_THROW(build("sleigh", {"m=+2.5", "a=-0.1", "I=1e-3"}));
+}
+
+// The paper's controlled snakeboard (section 6): from rest, equal-phase, equal-frequency
+// sinusoidal torques on the rider and the axles move it forward with increasing speed.
+TEST(Scenes, ControlledSnakeboardMovesForwardWithIncreasingSpeed) {
+  const auto& info = scenarios::find_scene("snakeboard");
+  auto p = info.defaults();
+  for (const char* a : {"v0=0", "psi_dot0=0", "phi_dot0=0", "phi0=-0.5", "u_psi_amp=-0.2", "u_phi_amp=0.04",
+                        "u_psi_omega=2", "u_phi_omega=2", "u_psi_phase=1.5707963267948966",
+                        "u_phi_phase=1.5707963267948966"})
+    p.assign(a);
+  const auto setup = info.build(p);
+  Workspace ws(setup.model);
+  State s = start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0);
+  double x10 = 0.0;
+  for (int k = 1; k <= 2000; ++k) {
+    ASSERT_EQ(step(setup.model, ws, s, {0.01}), Status::Ok) << ws.message();
+    if (k == 1000) x10 = s.q[0];
+  }
+  std::cout << "[snakeboard gait] x(10) = " << x10 << ", x(20) = " << s.q[0] << ", y(20) = " << s.q[1] << "\n";
+  EXPECT_GT(x10, 1.0);
+  EXPECT_GT(s.q[0] - x10, 2.0 * x10) << "faster in the second half";
+  EXPECT_LT(std::abs(s.q[1]), 2.0);
 }
 
 }  // namespace

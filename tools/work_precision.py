@@ -112,7 +112,7 @@ def main():
     rows = read(os.path.join(src, "paper_snakeboard_path.csv"))
     axes[2].plot([float(r["x"]) for r in rows], [float(r["y"]) for r in rows])
     axes[2].set_aspect("equal", adjustable="datalim")
-    axes[2].set_title("controlled snakeboard from rest: path of the centre")
+    axes[2].set_title("controlled snakeboard from rest, T = 20")
     axes[2].set_xlabel("x")
     axes[2].set_ylabel("y")
     fig.tight_layout()
