@@ -4,24 +4,19 @@
 #include <nonholo/workspace.hpp>
 
 #include <cmath>
+
 #include <limits>
 #include <sstream>
 #include <stdexcept>
 
+#include "option_checks.hpp"
+
 namespace nonholo {
 
 void validate(const ImplicitOptions& o) {
-  auto fail = [](const char* what, double value, const char* rule) {
-    std::ostringstream os;
-    os << what << " = " << value << " " << rule;
-    throw std::invalid_argument(os.str());
-  };
-  if (!(o.h > 0.0) || !std::isfinite(o.h)) fail("step size h", o.h, "must be positive and finite");
-  if (!(o.newton_tolerance > 0.0) || !(o.newton_tolerance < 1.0))
-    fail("newton_tolerance", o.newton_tolerance, "must lie in (0, 1)");
-  if (o.max_newton_iterations < 1) fail("max_newton_iterations", o.max_newton_iterations, "must be at least 1");
-  if (!(o.min_pivot_ratio >= 0.0) || !(o.min_pivot_ratio < 1.0))
-    fail("min_pivot_ratio", o.min_pivot_ratio, "must lie in [0, 1)");
+  detail::check_step_size(o.h);
+  detail::check_newton(o.newton_tolerance, o.max_newton_iterations);
+  detail::check_pivot_ratio(o.min_pivot_ratio);
 }
 
 ImplicitWorkspace::ImplicitWorkspace(const Model& model)

@@ -11,9 +11,12 @@
 #include <nonholo/dynamics.hpp>
 
 #include <cmath>
+
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+
+#include "option_checks.hpp"
 
 namespace nonholo {
 
@@ -28,21 +31,14 @@ HitchMode hitch_mode_from_string(const std::string& name) {
 }
 
 void validate(const RattleOptions& options) {
-  auto fail = [](const char* what, double value, const char* rule) {
-    std::ostringstream os;
-    os << what << " = " << value << " " << rule;
-    throw std::invalid_argument(os.str());
-  };
-  if (!(options.h > 0.0) || !std::isfinite(options.h))
-    fail("step size h", options.h, "must be positive and finite");
-  if (!(options.min_pivot_ratio >= 0.0) || !(options.min_pivot_ratio < 1.0))
-    fail("min_pivot_ratio", options.min_pivot_ratio, "must lie in [0, 1)");
+  detail::check_step_size(options.h);
+  detail::check_pivot_ratio(options.min_pivot_ratio);
   if (!(options.gap_tolerance > 0.0) || !std::isfinite(options.gap_tolerance))
-    fail("gap_tolerance", options.gap_tolerance, "must be positive and finite");
+    detail::reject("gap_tolerance", options.gap_tolerance, "must be positive and finite");
   if (options.max_gap_iterations < 1)
-    fail("max_gap_iterations", options.max_gap_iterations, "must be at least 1");
+    detail::reject("max_gap_iterations", options.max_gap_iterations, "must be at least 1");
   if (options.restart_every < 0)
-    fail("restart_every", options.restart_every, "must be 0 (never) or positive");
+    detail::reject("restart_every", options.restart_every, "must be 0 (never) or positive");
 }
 
 namespace {
