@@ -1,10 +1,7 @@
 #include <nonholo/dla.hpp>
 
 #include <cmath>
-
 #include <limits>
-#include <sstream>
-#include <stdexcept>
 
 #include "option_checks.hpp"
 

@@ -4,7 +4,6 @@
 #include <nonholo/workspace.hpp>
 
 #include <cmath>
-
 #include <limits>
 #include <sstream>
 #include <stdexcept>

@@ -11,7 +11,6 @@
 #include <nonholo/dynamics.hpp>
 
 #include <cmath>
-
 #include <limits>
 #include <sstream>
 #include <stdexcept>
