@@ -17,6 +17,7 @@ const char* to_string(Status status) {
     case Status::OdeSolverFailure: return "ode-solver-failure";
     case Status::NewtonNotConverged: return "newton-not-converged";
     case Status::MethodNotApplicable: return "method-not-applicable";
+    case Status::InvalidInput: return "invalid-input";
   }
   return "unknown";
 }

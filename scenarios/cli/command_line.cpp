@@ -1,44 +1,104 @@
 #include <nonholo/scenarios/command_line.hpp>
 
+#include <nonholo/scenarios/batch.hpp>
 #include <nonholo/scenarios/run.hpp>
 #include <nonholo/scenarios/work_precision.hpp>
 
 #include <CLI/CLI.hpp>
 
 #include <ostream>
-#include <string>
 #include <stdexcept>
+#include <string>
 
 namespace nonholo::scenarios {
+namespace {
+
+constexpr const char* kCommands = "run, batch, list, wp";
+
+// The options `run` and `batch` share, with their raw strings for the enums.
+struct RunOptions {
+  RunConfig config;
+  std::string backend = "auto", hitch = "holonomic";
+};
+
+void add_run_options(CLI::App* cmd, RunOptions& o) {
+  cmd->add_option("scene", o.config.scene,
+                  "scene name (particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train)")
+      ->required();
+  cmd->add_option("--dt", o.config.dt, "time step (default: the scene's)");
+  cmd->add_option("--t-end", o.config.t_end, "final time (default: the scene's)");
+  cmd->add_option("--set", o.config.assignments, "set a scene parameter, NAME=VALUE (repeatable)")
+      ->take_all()
+      ->allow_extra_args(false);
+  cmd->add_option("--backend", o.backend,
+                  "factorisation of C: auto, block-diagonal, dense, cholmod-natural, cholmod-amd");
+  cmd->add_option("--hitch", o.hitch, "hitches: holonomic (position level, default) or oneform");
+  cmd->add_option("--method", o.config.method,
+                  "reflection (default), dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner (the "
+                  "last three integrate the index-reduced equations; --dt is then RK4's step or "
+                  "ARKODE's output interval)");
+  cmd->add_flag("--project", o.config.project,
+                "rk4 and arkode-*: project onto the constraints (and hitches) after every step");
+  cmd->add_option("--tol", o.config.tol, "arkode-*: relative and absolute tolerance (default 1e-8)");
+  cmd->add_option("--restart", o.config.restart,
+                  "reset the multipliers to the continuous ones every K steps (0: never; "
+                  "default: the scene's)");
+}
+
+// Checks that need to know which options were given; fills the enums.
+void finish_run_options(const CLI::App* cmd, RunOptions& o) {
+  RunConfig& run = o.config;
+  if (cmd->count("--dt") && !(run.dt > 0.0))
+    throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
+  if (run.method != "reflection") {
+    for (const char* option : {"--hitch", "--restart"})
+      if (cmd->count(option)) throw std::invalid_argument(std::string(option) + " applies to the reflection method only");
+  } else if (cmd->count("--tol")) {
+    throw std::invalid_argument("--tol applies to the methods arkode-dp5 and arkode-verner");
+  }
+  if (cmd->count("--restart") && run.restart < 0)
+    throw std::invalid_argument("--restart " + std::to_string(run.restart) + ": must be 0 (never) or positive");
+  if (cmd->count("--t-end") && !(run.t_end >= 0.0))
+    throw std::invalid_argument("--t-end " + std::to_string(run.t_end) + ": must be non-negative");
+  run.backend = sparse::backend_from_string(o.backend);
+  run.hitch = hitch_mode_from_string(o.hitch);
+}
+
+void list_scenes(std::ostream& out) {
+  for (const auto& info : scene_catalogue()) {
+    out << info.name << ": " << info.description << " (dt " << info.default_dt << ", t_end "
+        << info.default_t_end;
+    if (info.default_restart > 0) out << ", restart " << info.default_restart;
+    out << ")\n";
+    for (const auto& p : info.parameters) out << "  " << p.name << " = " << p.default_value << "  " << p.description << "\n";
+  }
+}
+
+}  // namespace
 
 int run_command_line(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
   CLI::App app{"nonholo: momentum- and energy-preserving integration of nonholonomic systems"};
   app.require_subcommand(1);
 
-  RunConfig run;
-  std::string backend = "auto", hitch = "holonomic";
-  auto* cmd = app.add_subcommand("run", "integrate one scene and print a summary line");
-  cmd->add_option("scene", run.scene, "scene name (particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train)")->required();
-  cmd->add_option("--dt", run.dt, "time step (default: the scene's)");
-  cmd->add_option("--t-end", run.t_end, "final time (default: the scene's)");
-  cmd->add_option("--set", run.assignments, "set a scene parameter, NAME=VALUE (repeatable)")
+  RunOptions run;
+  auto* run_cmd = app.add_subcommand("run", "integrate one scene and print a summary line");
+  add_run_options(run_cmd, run);
+  run_cmd->add_option("--out", run.config.csv_path, "write the trajectory to this CSV file");
+  run_cmd->add_option("--every", run.config.every, "write every K-th step to the CSV (default 1)");
+
+  RunOptions batch_run;
+  BatchConfig batch;
+  auto* batch_cmd = app.add_subcommand("batch", "integrate many trajectories of one scene in parallel");
+  add_run_options(batch_cmd, batch_run);
+  batch_cmd->add_option("--count", batch.count, "number of trajectories")->required();
+  batch_cmd->add_option("--threads", batch.threads, "threads (default: all cores)");
+  batch_cmd->add_option("--vary", batch.vary, "draw a parameter per trajectory, NAME=LO:HI (repeatable)")
       ->take_all()
       ->allow_extra_args(false);
-  cmd->add_option("--out", run.csv_path, "write the trajectory to this CSV file");
-  cmd->add_option("--every", run.every, "write every K-th step to the CSV (default 1)");
-  cmd->add_option("--backend", backend,
-                  "factorisation of C: auto, block-diagonal, dense, cholmod-natural, cholmod-amd");
-  cmd->add_option("--hitch", hitch, "hitches: holonomic (position level, default) or oneform");
-  cmd->add_option("--method", run.method,
-                  "reflection (default), dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner (the "
-                  "last three integrate the index-reduced equations; --dt is then RK4's step or "
-                  "ARKODE's output interval)");
-  cmd->add_flag("--project", run.project,
-                "rk4 and arkode-*: project onto the constraints (and hitches) after every step");
-  cmd->add_option("--tol", run.tol, "arkode-*: relative and absolute tolerance (default 1e-8)");
-  cmd->add_option("--restart", run.restart,
-                  "reset the multipliers to the continuous ones every K steps (0: never; "
-                  "default: the scene's)");
+  batch_cmd->add_option("--seed", batch.seed, "seed of the --vary draws (default 1)");
+  batch_cmd->add_option("--out", batch.out, "write one row per trajectory to this CSV file");
+
+  auto* list_cmd = app.add_subcommand("list", "the scenes with their parameters and defaults");
 
   WorkPrecisionConfig wp;
   auto* wp_cmd = app.add_subcommand("wp", "work-precision study of every method: CSV files for tools/work_precision.py");
@@ -46,9 +106,12 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   wp_cmd->add_flag("--quick", wp.quick, "a few points only (seconds instead of minutes)");
 
   // CLI11 would only say that a subcommand is required; name the unknown word instead.
-  if (argc > 1 && argv[1][0] != '-' && std::string(argv[1]) != "run" && std::string(argv[1]) != "wp") {
-    err << "nonholo: unknown command '" << argv[1] << "' (commands: run, wp)" << std::endl;
-    return 1;
+  if (argc > 1 && argv[1][0] != '-') {
+    const std::string word = argv[1];
+    if (word != "run" && word != "batch" && word != "list" && word != "wp") {
+      err << "nonholo: unknown command '" << word << "' (commands: " << kCommands << ")" << std::endl;
+      return 1;
+    }
   }
   try {
     app.parse(argc, argv);
@@ -57,39 +120,39 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     return code == 0 ? 0 : 1;
   }
 
-  if (wp_cmd->parsed()) {
-    try {
-      run_work_precision(wp, err);
-    } catch (const std::exception& e) {
-      err << "nonholo wp: " << e.what() << std::endl;
-      return 1;
-    }
-    return 0;
-  }
+  const std::string name = app.get_subcommands().front()->get_name();
   try {
-    if (cmd->count("--dt") && !(run.dt > 0.0))
-      throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
-    if (run.method != "reflection") {
-      for (const char* option : {"--hitch", "--restart"})
-        if (cmd->count(option))
-          throw std::invalid_argument(std::string(option) + " applies to the reflection method only");
-    } else if (cmd->count("--tol")) {
-      throw std::invalid_argument("--tol applies to the methods arkode-dp5 and arkode-verner");
+    if (list_cmd->parsed()) {
+      list_scenes(out);
+      return 0;
     }
-    if (cmd->count("--restart") && run.restart < 0)
-      throw std::invalid_argument("--restart " + std::to_string(run.restart) + ": must be 0 (never) or positive");
-    if (cmd->count("--t-end") && !(run.t_end >= 0.0))
-      throw std::invalid_argument("--t-end " + std::to_string(run.t_end) + ": must be non-negative");
-    run.backend = sparse::backend_from_string(backend);
-    run.hitch = hitch_mode_from_string(hitch);
-    const RunSummary summary = run_scene(run);
+    if (wp_cmd->parsed()) {
+      run_work_precision(wp, err);
+      return 0;
+    }
+    if (batch_cmd->parsed()) {
+      finish_run_options(batch_cmd, batch_run);
+      if (batch_cmd->count("--threads") && batch.threads < 1)
+        throw std::invalid_argument("--threads " + std::to_string(batch.threads) + ": must be at least 1");
+      batch.run = batch_run.config;
+      const BatchResult result = run_batch(batch);
+      out << result.line() << std::endl;
+      if (result.failed > 0) {
+        err << "nonholo batch: " << result.failed << " of " << result.trajectories
+            << " trajectories failed; first: " << result.first_failure << std::endl;
+        return 2;
+      }
+      return 0;
+    }
+    finish_run_options(run_cmd, run);
+    const RunSummary summary = run_scene(run.config);
     out << summary.line() << std::endl;
     if (summary.status != Status::Ok) {
       err << "nonholo run: " << summary.message << std::endl;
       return 2;
     }
   } catch (const std::exception& e) {
-    err << "nonholo run: " << e.what() << std::endl;
+    err << "nonholo " << name << ": " << e.what() << std::endl;
     return 1;
   }
   return 0;

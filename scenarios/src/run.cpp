@@ -1,5 +1,7 @@
 #include <nonholo/scenarios/run.hpp>
 
+#include "progress.hpp"
+#include "run_internal.hpp"
 #include "runners.hpp"
 
 #include <nonholo/diagnostics.hpp>
@@ -102,35 +104,41 @@ std::string RunSummary::line() const {
   return os.str();
 }
 
-RunSummary run_scene(const RunConfig& config) {
-  const auto start_time = Clock::now();
-  const SceneInfo& info = find_scene(config.scene);
-  Parameters params = info.defaults();
-  for (const auto& a : config.assignments) params.assign(a);
-
-  const double dt = config.dt > 0.0 ? config.dt : info.default_dt;
+PreparedRun prepare_run(const RunConfig& config) {
+  PreparedRun r;
+  r.info = &find_scene(config.scene);
+  const SceneInfo& info = *r.info;
+  r.dt = config.dt > 0.0 ? config.dt : info.default_dt;
   const double t_end = config.t_end >= 0.0 ? config.t_end : info.default_t_end;
-  MethodChoice choice;
-  choice.method = config.method;
-  choice.backend = config.backend;
-  choice.rattle.h = dt;
-  choice.rattle.hitch = config.hitch;
-  choice.rattle.restart_every = config.restart >= 0 ? config.restart : info.default_restart;
-  validate(choice.rattle);
-  choice.reference.h = dt;
-  choice.reference.tol = config.tol;
-  choice.reference.project = config.project;
-  reference::validate(choice.reference);
-  const bool reflection = config.method == "reflection";
+  r.choice.method = config.method;
+  r.choice.backend = config.backend;
+  r.choice.rattle.h = r.dt;
+  r.choice.rattle.hitch = config.hitch;
+  r.choice.rattle.restart_every = config.restart >= 0 ? config.restart : info.default_restart;
+  validate(r.choice.rattle);
+  r.choice.reference.h = r.dt;
+  r.choice.reference.tol = config.tol;
+  r.choice.reference.project = config.project;
+  reference::validate(r.choice.reference);
   if (!reference_method(config.method) && config.project)
     throw std::invalid_argument("--project applies to the methods rk4, arkode-dp5 and arkode-verner");
   if (!std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite");
   if (config.every < 1)
     throw std::invalid_argument("--every " + std::to_string(config.every) + ": must be at least 1");
   // Whole steps of size dt; the run ends at the first multiple of dt at or after t_end.
-  const double ratio = t_end / dt;
+  const double ratio = t_end / r.dt;
   if (ratio > 1e12) throw std::invalid_argument("t_end / dt is above 1e12 steps");
-  const long steps = static_cast<long>(std::ceil(ratio * (1.0 - 1e-12)));
+  r.steps = static_cast<long>(std::ceil(ratio * (1.0 - 1e-12)));
+  return r;
+}
+
+RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
+                           Progress* progress, Vector* final_q) {
+  const SceneInfo& info = *run.info;
+  const MethodChoice& choice = run.choice;
+  const double dt = run.dt;
+  const long steps = run.steps;
+  const bool reflection = config.method == "reflection";
 
   SceneSetup setup = info.build(params);
   const Model& model = setup.model;
@@ -191,6 +199,7 @@ RunSummary run_scene(const RunConfig& config) {
       csv->row(runner->t(), runner->q(), d);
       output_s += seconds_since(out_start);
     }
+    if (progress && (k & 255) == 0) progress->update(k);
   }
   const double loop_s = seconds_since(loop_start) - output_s;
   if (csv) csv->close();
@@ -198,6 +207,18 @@ RunSummary run_scene(const RunConfig& config) {
   summary.rhs_evaluations = runner->rhs_evaluations();
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
+  if (final_q) *final_q = runner->q();
+  return summary;
+}
+
+RunSummary run_scene(const RunConfig& config) {
+  const auto start_time = Clock::now();
+  const PreparedRun run = prepare_run(config);
+  Parameters params = run.info->defaults();
+  for (const auto& a : config.assignments) params.assign(a);
+  Progress progress(run.info->name, run.steps);
+  RunSummary summary = integrate_scene(run, params, config, &progress, nullptr);
+  progress.finish();
   summary.wall_s = seconds_since(start_time);
   return summary;
 }

@@ -9,26 +9,9 @@
 #include <cmath>
 #include <cstdint>
 
+#include "random.hpp"
+
 namespace nonholo::scenarios {
-namespace {
-
-// splitmix64: a tiny, well-mixed generator whose output is fixed by the seed alone.
-class Random {
- public:
-  explicit Random(std::uint64_t seed) : state_(seed) {}
-  double uniform() {  // in [0, 1), 53 random bits
-    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return static_cast<double>(z >> 11) * 0x1.0p-53;
-  }
-
- private:
-  std::uint64_t state_;
-};
-
-}  // namespace
 
 SceneInfo wheeled_train_scene() {
   SceneInfo info;

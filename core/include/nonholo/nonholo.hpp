@@ -1,5 +1,6 @@
 #pragma once
 // Everything needed to build a model and integrate it.
+#include <nonholo/batch.hpp>
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/dynamics.hpp>
 #include <nonholo/model.hpp>

@@ -17,6 +17,7 @@ enum class Status {
   OdeSolverFailure,     // a reference ODE solver gave up (ARKODE: too much work, error test)
   NewtonNotConverged,   // an implicit step's Newton iteration did not converge
   MethodNotApplicable,  // e.g. an explicit method on a model with a configuration metric
+  InvalidInput,         // a batch trajectory whose set-up was refused (message says why)
 };
 
 const char* to_string(Status status);

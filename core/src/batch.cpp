@@ -1,0 +1,60 @@
+#include <nonholo/batch.hpp>
+
+#include <omp.h>
+
+#include <exception>
+#include <memory>
+
+namespace nonholo {
+
+int batch_threads(int requested) {
+  const int n = requested > 0 ? requested : omp_get_num_procs();
+  return n > 0 ? n : 1;
+}
+
+std::vector<std::string> parallel_for(long count, int threads, const std::function<void(long i, int thread)>& job) {
+  std::vector<std::string> errors(static_cast<std::size_t>(count > 0 ? count : 0));
+  const int t = batch_threads(threads);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(t)
+  for (long i = 0; i < count; ++i) {
+    try {
+      job(i, omp_get_thread_num());
+    } catch (const std::exception& e) {
+      errors[static_cast<std::size_t>(i)] = e.what();
+    } catch (...) {
+      errors[static_cast<std::size_t>(i)] = "unknown exception";
+    }
+  }
+  return errors;
+}
+
+std::vector<BatchOutcome> integrate_batch(const Model& model, std::vector<State>& states, long steps,
+                                          const RattleOptions& options, const BatchOptions& batch) {
+  validate(options);
+  const int t = batch_threads(batch.threads);
+  std::vector<BatchOutcome> out(states.size());
+  // One workspace per thread, built inside the region by its own thread.
+  std::vector<std::unique_ptr<Workspace>> workspaces(static_cast<std::size_t>(t));
+  const auto errors = parallel_for(static_cast<long>(states.size()), t, [&](long i, int thread) {
+    auto& ws = workspaces[static_cast<std::size_t>(thread)];
+    if (!ws) ws = std::make_unique<Workspace>(model, batch.workspace);
+    BatchOutcome& o = out[static_cast<std::size_t>(i)];
+    State& s = states[static_cast<std::size_t>(i)];
+    for (long k = 0; k < steps; ++k) {
+      o.status = step(model, *ws, s, options);
+      if (o.status != Status::Ok) {
+        o.message = ws->message();
+        return;
+      }
+      o.steps = k + 1;
+    }
+  });
+  for (std::size_t i = 0; i < out.size(); ++i)
+    if (!errors[i].empty()) {
+      out[i].status = Status::LinearSolverFailure;
+      out[i].message = errors[i];
+    }
+  return out;
+}
+
+}  // namespace nonholo

@@ -1,0 +1,166 @@
+#include <nonholo/scenarios/batch.hpp>
+
+#include <nonholo/batch.hpp>
+
+#include <charconv>
+#include <chrono>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "random.hpp"
+#include "run_internal.hpp"
+
+namespace nonholo::scenarios {
+namespace {
+
+struct Variation {
+  std::string name;
+  double lo, hi;
+};
+
+Variation parse_variation(const std::string& text) {
+  const auto eq = text.find('='), colon = text.find(':', eq == std::string::npos ? 0 : eq);
+  if (eq == std::string::npos || colon == std::string::npos || eq == 0)
+    throw std::invalid_argument("--vary '" + text + "': expected NAME=LO:HI");
+  Variation v{text.substr(0, eq), 0.0, 0.0};
+  v.lo = parse_number(text.substr(eq + 1, colon - eq - 1), "--vary " + text);
+  v.hi = parse_number(text.substr(colon + 1), "--vary " + text);
+  if (!(v.lo <= v.hi)) throw std::invalid_argument("--vary " + text + ": LO must not exceed HI");
+  return v;
+}
+
+std::string number(double x) {
+  char buf[32];
+  return std::string(buf, std::to_chars(buf, buf + sizeof buf, x).ptr);
+}
+
+struct Row {
+  RunSummary summary;
+  std::vector<double> values;  // the varied parameters
+  Vector final_q;
+  std::string error;
+};
+
+}  // namespace
+
+std::string BatchResult::line() const {
+  std::ostringstream os;
+  os << aggregate.line() << " trajectories=" << trajectories << " threads=" << threads << " failed=" << failed;
+  return os.str();
+}
+
+BatchResult run_batch(const BatchConfig& config) {
+  const auto start = std::chrono::steady_clock::now();
+  if (config.count < 1) throw std::invalid_argument("--count " + std::to_string(config.count) + ": must be at least 1");
+  if (config.threads < 0) throw std::invalid_argument("--threads " + std::to_string(config.threads) + ": must be positive");
+  RunConfig run_config = config.run;
+  run_config.csv_path.clear();
+  const PreparedRun prepared = prepare_run(run_config);
+  Parameters base = prepared.info->defaults();
+  for (const auto& a : config.run.assignments) base.assign(a);
+  std::vector<Variation> variations;
+  for (const auto& text : config.vary) {
+    variations.push_back(parse_variation(text));
+    Parameters check = base;  // the name must be one of the scene's (throws otherwise)
+    check.set(variations.back().name, variations.back().lo);
+  }
+  std::ofstream out;
+  if (!config.out.empty()) {
+    out.open(config.out);
+    if (!out) throw std::invalid_argument("cannot open '" + config.out + "' for writing: " + std::strerror(errno));
+  }
+
+  const int threads = batch_threads(config.threads);
+  std::vector<Row> rows(static_cast<std::size_t>(config.count));
+  Progress progress("batch " + prepared.info->name, config.count);
+  const auto errors = parallel_for(config.count, threads, [&](long i, int) {
+    Row& row = rows[static_cast<std::size_t>(i)];
+    Parameters p = base;
+    // Draws depend on (seed, trajectory, variation) only.
+    Random random(config.seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(i));
+    for (const auto& v : variations) {
+      const double x = v.lo + (v.hi - v.lo) * random.uniform();
+      p.set(v.name, x);
+      row.values.push_back(x);
+    }
+    row.summary = integrate_scene(prepared, p, run_config, nullptr, &row.final_q);
+    progress.add(1);
+  });
+  progress.finish();
+
+  BatchResult result;
+  result.trajectories = config.count;
+  result.threads = threads;
+  RunSummary& agg = result.aggregate;
+  double loop_ns = 0.0;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    Row& r = rows[i];
+    if (!errors[i].empty()) {
+      r.error = errors[i];
+      r.summary.status = Status::InvalidInput;
+      r.summary.message = errors[i];
+    }
+    const RunSummary& s = r.summary;
+    if (i == 0 || agg.scene.empty()) {
+      agg.scene = prepared.info->name;
+      agg.method = config.run.method;
+      agg.hitch = s.hitch;
+      agg.restart = s.restart;
+      agg.bodies = s.bodies;
+      agg.backend = s.backend;
+      agg.dt = prepared.dt;
+    }
+    if (s.status != Status::Ok || !r.error.empty()) {
+      if (result.failed++ == 0) result.first_failure = "trajectory " + std::to_string(i) + ": " + s.message;
+      agg.status = s.status;
+    }
+    agg.steps += s.steps;
+    agg.t_final = std::max(agg.t_final, s.t_final);
+    loop_ns += s.ns_per_step * static_cast<double>(s.steps);
+    agg.energy_rel_err_max = std::max(agg.energy_rel_err_max, s.energy_rel_err_max);
+    agg.energy_post_rel_err_max = std::isnan(s.energy_post_rel_err_max) ? s.energy_post_rel_err_max
+                                  : std::max(agg.energy_post_rel_err_max, s.energy_post_rel_err_max);
+    agg.residual_max = std::max(agg.residual_max, s.residual_max);
+    agg.gap_max = std::max(agg.gap_max, s.gap_max);
+    agg.has_momentum = s.has_momentum;
+    agg.momentum_drift_max = std::max(agg.momentum_drift_max, s.momentum_drift_max);
+    if (s.rhs_evaluations >= 0) agg.rhs_evaluations = std::max(0L, agg.rhs_evaluations) + s.rhs_evaluations;
+  }
+  agg.ns_per_step = agg.steps > 0 ? loop_ns / static_cast<double>(agg.steps) : 0.0;
+  agg.ns_per_body_step = agg.bodies > 0 ? agg.ns_per_step / agg.bodies : 0.0;
+
+  if (out.is_open()) {
+    // Header: trajectory, varied parameters, final time, body 0's coordinates, the errors.
+    std::vector<std::string> names{"q0", "q1", "q2"};
+    try {
+      names = prepared.info->build(base).model.coordinate_names();
+    } catch (const std::exception&) {  // the fixed parameters alone are not a valid scene
+    }
+    const std::size_t shown = std::min<std::size_t>(3, names.size());
+    out << "trajectory";
+    for (const auto& v : variations) out << "," << v.name;
+    out << ",t_final";
+    for (std::size_t c = 0; c < shown; ++c) out << "," << names[c];
+    out << ",energy_rel_err_max,energy_post_rel_err_max,residual_max,gap_max,status\n";
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const Row& r = rows[i];
+      const RunSummary& s = r.summary;
+      out << i;
+      for (double x : r.values) out << "," << number(x);
+      out << "," << number(s.t_final);
+      for (std::size_t c = 0; c < shown; ++c) out << "," << (r.final_q.size() > 0 ? number(r.final_q[static_cast<Eigen::Index>(c)]) : "nan");
+      out << "," << number(s.energy_rel_err_max) << "," << number(s.energy_post_rel_err_max) << ","
+          << number(s.residual_max) << "," << number(s.gap_max) << "," << to_string(s.status) << "\n";
+    }
+    out.close();
+    if (!out) throw std::runtime_error("error writing '" + config.out + "'");
+  }
+  agg.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace nonholo::scenarios

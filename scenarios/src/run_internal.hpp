@@ -1,0 +1,25 @@
+#pragma once
+// The pieces of `nonholo run` that `nonholo batch` shares: option checking once, then one
+// trajectory at a time from a given set of parameters.
+#include <nonholo/scenarios/run.hpp>
+
+#include "progress.hpp"
+#include "runners.hpp"
+
+namespace nonholo::scenarios {
+
+struct PreparedRun {
+  const SceneInfo* info = nullptr;
+  MethodChoice choice;
+  double dt = 0.0;
+  long steps = 0;
+};
+
+// Validates the options of `config` (throws std::invalid_argument with the option's name).
+PreparedRun prepare_run(const RunConfig& config);
+// One trajectory of the prepared run with these parameters: the summary (wall_s left 0),
+// the CSV if config.csv_path is set, and the final configuration if final_q is given.
+RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
+                           Progress* progress, Vector* final_q);
+
+}  // namespace nonholo::scenarios

@@ -1,0 +1,221 @@
+// Batched trajectories (nonholo/batch.hpp and `nonholo batch`): the same bits whatever the
+// number of threads, equal to a serial run; one bad trajectory neither stops nor corrupts the
+// others; bad arguments are refused; nothing but the summary reaches a non-terminal stderr.
+#include <nonholo/batch.hpp>
+#include <nonholo/scenarios/batch.hpp>
+#include <nonholo/scenarios/command_line.hpp>
+#include <nonholo/scenarios/scene.hpp>
+#include <nonholo/start.hpp>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+#include "support/expect_error.hpp"
+#include "support/random_model.hpp"
+
+namespace nonholo {
+namespace {
+
+bool bitwise_equal(const Vector& a, const Vector& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
+}
+
+BatchOptions on(int threads) {
+  BatchOptions b;
+  b.threads = threads;
+  return b;
+}
+
+std::vector<State> sleigh_starts(const Model& model, int count) {
+  Workspace ws(model);
+  std::vector<State> starts;
+  for (int i = 0; i < count; ++i) {
+    const Vector q = testing::random_vector(static_cast<std::uint32_t>(i + 1), 3, 0.5);
+    const Vector v = testing::random_vector(static_cast<std::uint32_t>(i + 1000), 3);
+    starts.push_back(start_from_velocity(model, ws, 0.0, q, v));
+  }
+  return starts;
+}
+
+TEST(Batch, ResultsDoNotDependOnTheThreadCount) {
+  const auto& info = scenarios::find_scene("sleigh_chain");
+  auto p = info.defaults();
+  p.set("bodies", 4);
+  const auto setup = info.build(p);
+  Workspace ws(setup.model);
+  std::vector<State> serial;
+  for (int i = 0; i < 40; ++i) {
+    Vector v0 = setup.v0;
+    v0[2] = 0.1 * i - 2.0;  // body 0 turn rates from -2 to 1.9
+    serial.push_back(start_from_velocity(setup.model, ws, 0.0, setup.q0, v0));
+  }
+  std::vector<State> one = serial, two = serial, three = serial;
+  const RattleOptions o{0.01};
+  for (State& s : serial)
+    for (int k = 0; k < 300; ++k) ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok);
+  integrate_batch(setup.model, one, 300, o, on(1));
+  integrate_batch(setup.model, two, 300, o, on(2));
+  integrate_batch(setup.model, three, 300, o, on(3));
+  for (std::size_t i = 0; i < serial.size(); ++i) {
+    EXPECT_TRUE(bitwise_equal(one[i].q, serial[i].q)) << i;
+    EXPECT_TRUE(bitwise_equal(two[i].q, serial[i].q)) << i;
+    EXPECT_TRUE(bitwise_equal(three[i].p, serial[i].p)) << i;
+    EXPECT_TRUE(bitwise_equal(two[i].lambda, serial[i].lambda)) << i;
+  }
+}
+
+TEST(Batch, OneBadTrajectoryDoesNotStopOrCorruptTheOthers) {
+  const auto& info = scenarios::find_scene("sleigh");
+  const auto setup = info.build(info.defaults());
+  std::vector<State> good = sleigh_starts(setup.model, 16);
+  std::vector<State> mixed = good;
+  mixed[5].p[0] = std::numeric_limits<double>::quiet_NaN();  // this one cannot step
+  const State bad_before = mixed[5];
+  const RattleOptions o{0.01};
+  const auto reference = integrate_batch(setup.model, good, 500, o, on(2));
+  const auto outcome = integrate_batch(setup.model, mixed, 500, o, on(2));
+  for (std::size_t i = 0; i < good.size(); ++i) {
+    if (i == 5) continue;
+    EXPECT_EQ(outcome[i].status, Status::Ok) << i;
+    EXPECT_EQ(outcome[i].steps, 500) << i;
+    EXPECT_TRUE(bitwise_equal(mixed[i].q, good[i].q)) << i;
+  }
+  EXPECT_EQ(outcome[5].status, Status::NonFiniteState);
+  EXPECT_EQ(outcome[5].steps, 0);
+  EXPECT_THAT(outcome[5].message, ::testing::HasSubstr("NaN"));
+  EXPECT_TRUE(bitwise_equal(mixed[5].q, bad_before.q)) << "left as it was";
+  // An exception inside a job is caught and reported for that index only.
+  const auto errors = parallel_for(8, 2, [](long i, int) {
+    if (i == 3) throw std::runtime_error("job 3 broke");
+  });
+  for (long i = 0; i < 8; ++i) EXPECT_EQ(errors[static_cast<std::size_t>(i)], i == 3 ? "job 3 broke" : "");
+}
+
+struct Cli {
+  int code;
+  std::string out, err;
+};
+
+Cli cli(std::vector<std::string> args) {
+  args.insert(args.begin(), "nonholo");
+  std::vector<const char*> argv;
+  for (const auto& a : args) argv.push_back(a.c_str());
+  std::ostringstream out, err;
+  const int code = scenarios::run_command_line(static_cast<int>(argv.size()), argv.data(), out, err);
+  return {code, out.str(), err.str()};
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string temp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("nonholo_batch_" + std::to_string(::getpid()) + "_" + name)).string();
+}
+
+TEST(BatchCommand, FileIsByteIdenticalForAnyThreadCount) {
+  std::string first;
+  for (const char* threads : {"1", "2", "3"}) {
+    const std::string path = temp(std::string("t") + threads + ".csv");
+    const Cli r = cli({"batch", "sleigh_chain", "--count", "12", "--threads", threads, "--set", "bodies=5",
+                       "--vary", "omega0=-1:1", "--vary", "k=0:2", "--t-end", "2", "--out", path});
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_THAT(r.out, ::testing::HasSubstr(std::string("trajectories=12 threads=") + threads));
+    const std::string text = slurp(path);
+    EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 13) << "a header and 12 rows";
+    if (first.empty()) first = text;
+    EXPECT_EQ(text, first) << threads << " threads";
+    std::remove(path.c_str());
+  }
+  EXPECT_THAT(first, ::testing::StartsWith(
+                         "trajectory,omega0,k,t_final,x0,y0,theta0,energy_rel_err_max,energy_post_rel_err_max,"
+                         "residual_max,gap_max,status\n0,"));
+}
+
+TEST(BatchCommand, FailedTrajectoriesAreReportedAndTheOthersMatchSingleRuns) {
+  const std::string path = temp("mixed.csv");
+  // Masses drawn in [-0.5, 1.5]: some are refused at set-up, the others run.
+  const Cli r = cli({"batch", "sleigh", "--count", "10", "--threads", "2", "--vary", "m=-0.5:1.5", "--t-end", "1",
+                     "--seed", "7", "--out", path});
+  EXPECT_EQ(r.code, 2) << r.out << r.err;
+  EXPECT_THAT(r.err, ::testing::HasSubstr("trajectories failed; first: trajectory"));
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  int failed = 0, ok = 0;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ls(line);
+    for (std::string c; std::getline(ls, c, ',');) cells.push_back(c);
+    ASSERT_EQ(cells.size(), 11u) << line;
+    const double m = std::stod(cells[1]);
+    if (m > 0) {
+      ++ok;
+      EXPECT_EQ(cells.back(), "ok");
+      // The same parameters through `nonholo run`: the same final x to the last digit.
+      const std::string single = temp("single.csv");
+      ASSERT_EQ(cli({"run", "sleigh", "--set", "m=" + cells[1], "--t-end", "1", "--out", single}).code, 0);
+      std::ifstream s(single);
+      std::string row, last;
+      while (std::getline(s, row)) last = row;
+      EXPECT_EQ(last.substr(last.find(',') + 1, cells[3].size()), cells[3]) << "x of trajectory " << cells[0];
+      std::remove(single.c_str());
+    } else {
+      ++failed;
+      EXPECT_EQ(cells.back(), "invalid-input") << line;
+    }
+  }
+  EXPECT_GT(ok, 0);
+  EXPECT_GT(failed, 0);
+  std::remove(path.c_str());
+}
+
+TEST(BatchCommand, BadArgumentsAreRefused) {
+  auto fails = [](std::vector<std::string> args, const std::string& fragment) {
+    const Cli r = cli(args);
+    EXPECT_EQ(r.code, 1) << ::testing::PrintToString(args);
+    EXPECT_THAT(r.err + r.out, ::testing::HasSubstr(fragment)) << ::testing::PrintToString(args);
+  };
+  fails({"batch", "sleigh"}, "--count is required");
+  fails({"batch", "sleigh", "--count", "0"}, "--count 0: must be at least 1");
+  fails({"batch", "sleigh", "--count", "3", "--threads", "0"}, "--threads 0: must be at least 1");
+  fails({"batch", "sleigh", "--count", "3", "--vary", "m=1"}, "--vary 'm=1': expected NAME=LO:HI");
+  fails({"batch", "sleigh", "--count", "3", "--vary", "mass=1:2"}, "unknown parameter 'mass' for scene 'sleigh'");
+  fails({"batch", "sleigh", "--count", "3", "--vary", "m=2:1"}, "LO must not exceed HI");
+  fails({"batch", "sleigh", "--count", "3", "--vary", "m=x:1"}, "'x' is not a number");
+  fails({"batch", "sled", "--count", "3"}, "unknown scene 'sled'");
+}
+
+TEST(ListCommand, NamesEveryScenesParametersAndDefaults) {
+  const Cli r = cli({"list"});
+  ASSERT_EQ(r.code, 0);
+  for (const auto& info : scenarios::scene_catalogue()) {
+    EXPECT_THAT(r.out, ::testing::HasSubstr(info.name + ": " + info.description));
+    for (const auto& p : info.parameters) EXPECT_THAT(r.out, ::testing::HasSubstr("  " + p.name + " = "));
+  }
+  EXPECT_THAT(r.out, ::testing::HasSubstr("  bodies = 1000  number of bodies N"));
+}
+
+// The progress bar is for terminals only: with stderr redirected to a file, a successful
+// run and batch write nothing there.
+TEST(Progress, NothingExtraWhenStderrIsNotATerminal) {
+  const std::string err = temp("stderr.txt");
+  const std::string cmd = std::string(NONHOLO_CLI) + " run sleigh_chain --set bodies=300 --t-end 3 > /dev/null 2> " + err +
+                          " && " + NONHOLO_CLI + " batch sleigh --count 200 > /dev/null 2>> " + err;
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  EXPECT_EQ(slurp(err), "");
+  std::remove(err.c_str());
+}
+
+}  // namespace
+}  // namespace nonholo
