@@ -8,6 +8,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "scalar_sleigh.hpp"
+
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -15,6 +17,8 @@
 namespace {
 
 using namespace nonholo;
+using bench::ScalarSleigh;
+using bench::scalar_from;
 
 struct Fixture {
   scenarios::SceneSetup setup;
@@ -44,32 +48,6 @@ void Step_SleighCholmod(benchmark::State& s) { run_steps(s, "sleigh", sparse::Ba
 void Step_SnakeboardCholmod(benchmark::State& s) { run_steps(s, "snakeboard", sparse::Backend::CholmodAmd, false); }
 void StepAndDiagnose_Sleigh(benchmark::State& s) { run_steps(s, "sleigh", sparse::Backend::Auto, true); }
 
-// The floor: the same scheme for the sleigh written out with scalars.
-struct ScalarSleigh {
-  double m, inertia, a, h;
-  double x, y, th, px, py, pth, fx, fy, fth;
-  void step() {
-    const double hh = 0.5 * h;
-    const double qx = px + hh * fx, qy = py + hh * fy, qth = pth + hh * fth;  // p_{k+1/2}
-    const double vx = qx / m, vy = qy / m, vth = qth / inertia;
-    x += h * vx;
-    y += h * vy;
-    th += h * vth;
-    const double s = std::sin(th), c = std::cos(th);
-    const double gram = 1.0 / m + a * a / inertia;  // s^2 + c^2 = 1 folded in
-    const double lambda = -(2.0 / h) * (s * vx - c * vy + a * vth) / gram;
-    fx = s * lambda;
-    fy = -c * lambda;
-    fth = a * lambda;
-    px = qx + hh * fx;
-    py = qy + hh * fy;
-    pth = qth + hh * fth;
-  }
-};
-
-ScalarSleigh scalar_from(const State& s) {
-  return {1.0, 1.0, 0.2, 0.01, s.q[0], s.q[1], s.q[2], s.p[0], s.p[1], s.p[2], s.force[0], s.force[1], s.force[2]};
-}
 
 void ScalarSleighStep(benchmark::State& bench) {
   Fixture f("sleigh", sparse::Backend::Auto);

@@ -1,8 +1,15 @@
 #!/usr/bin/env bash
-# The main job: every built-in scene with its defaults, one summary line each.
+# The main job: a generated wheeled_train (1000 bodies by default; pass --set bodies=N and
+# other `nonholo run` options to change it) with its trajectory CSV and a PNG of its path in
+# ./out, and its summary line.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+nonholo_require python3-matplotlib
 nonholo_build nonholo_cli
-for scene in particle sleigh sleigh_contact snakeboard sleigh_chain wheeled_train; do
-  "$NONHOLO_BUILD/nonholo" run "$scene"
-done
+mkdir -p "$NONHOLO_ROOT/out"
+csv="$NONHOLO_ROOT/out/wheeled_train.csv"
+png="$NONHOLO_ROOT/out/wheeled_train.png"
+"$NONHOLO_BUILD/nonholo" run wheeled_train --every 20 --out "$csv" "$@"
+/usr/bin/python3 "$NONHOLO_ROOT/tools/plot_train.py" "$csv" "$png"
+echo "trajectory: $csv" >&2
+echo "picture:    $png" >&2

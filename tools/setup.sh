@@ -9,17 +9,23 @@ NONHOLO_BUILD="${NONHOLO_BUILD:-$NONHOLO_ROOT/build}"
 packages=(g++ make cmake libeigen3-dev libsuitesparse-dev libgtest-dev libgmock-dev
           libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev)
 
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
+# Installs the given Debian packages that are missing (apt-get update once per shell).
+nonholo_require() {
+  local missing=() p
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  ((${#missing[@]})) || return 0
   echo "nonholo: installing ${missing[*]}" >&2
-  sudo=""
+  local sudo=""
   [ "$(id -u)" -eq 0 ] || sudo="sudo"
-  $sudo apt-get update
+  if [ -z "${NONHOLO_APT_UPDATED:-}" ]; then
+    $sudo apt-get update
+    NONHOLO_APT_UPDATED=1
+  fi
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y --no-install-recommends "${missing[@]}"
-fi
+}
+nonholo_require "${packages[@]}"
 
 # Builds the given targets (all when none).
 nonholo_build() {
