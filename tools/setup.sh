@@ -7,7 +7,7 @@ NONHOLO_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 NONHOLO_BUILD="${NONHOLO_BUILD:-$NONHOLO_ROOT/build}"
 
 packages=(g++ make cmake libeigen3-dev libsuitesparse-dev libgtest-dev libgmock-dev
-          libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev)
+          libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev nlohmann-json3-dev)
 
 # Installs the given Debian packages that are missing (apt-get update once per shell).
 nonholo_require() {

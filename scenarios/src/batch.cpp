@@ -60,7 +60,7 @@ BatchResult run_batch(const BatchConfig& config) {
   RunConfig run_config = config.run;
   run_config.csv_path.clear();
   const PreparedRun prepared = prepare_run(run_config);
-  Parameters base = prepared.info->defaults();
+  Parameters base = prepared.info.defaults();
   for (const auto& a : config.run.assignments) base.assign(a);
   std::vector<Variation> variations;
   for (const auto& text : config.vary) {
@@ -76,7 +76,7 @@ BatchResult run_batch(const BatchConfig& config) {
 
   const int threads = batch_threads(config.threads);
   std::vector<Row> rows(static_cast<std::size_t>(config.count));
-  Progress progress("batch " + prepared.info->name, config.count);
+  Progress progress("batch " + prepared.info.name, config.count);
   const auto errors = parallel_for(config.count, threads, [&](long i, int) {
     Row& row = rows[static_cast<std::size_t>(i)];
     Parameters p = base;
@@ -106,7 +106,7 @@ BatchResult run_batch(const BatchConfig& config) {
     }
     const RunSummary& s = r.summary;
     if (i == 0 || agg.scene.empty()) {
-      agg.scene = prepared.info->name;
+      agg.scene = prepared.info.name;
       agg.method = config.run.method;
       agg.hitch = s.hitch;
       agg.restart = s.restart;
@@ -137,7 +137,7 @@ BatchResult run_batch(const BatchConfig& config) {
     // Header: trajectory, varied parameters, final time, body 0's coordinates, the errors.
     std::vector<std::string> names{"q0", "q1", "q2"};
     try {
-      names = prepared.info->build(base).model.coordinate_names();
+      names = prepared.info.build(base).model.coordinate_names();
     } catch (const std::exception&) {  // the fixed parameters alone are not a valid scene
     }
     const std::size_t shown = std::min<std::size_t>(3, names.size());

@@ -1,5 +1,7 @@
 #include <nonholo/scenarios/run.hpp>
 
+#include <nonholo/scenarios/scene_file.hpp>
+
 #include "progress.hpp"
 #include "run_internal.hpp"
 #include "runners.hpp"
@@ -106,8 +108,10 @@ std::string RunSummary::line() const {
 
 PreparedRun prepare_run(const RunConfig& config) {
   PreparedRun r;
-  r.info = &find_scene(config.scene);
-  const SceneInfo& info = *r.info;
+  r.info = is_scene_file(config.scene) ? load_scene_file(config.scene) : find_scene(config.scene);
+  const SceneInfo& info = r.info;
+  if (is_scene_file(config.scene) && !config.assignments.empty())
+    throw std::invalid_argument("--set does not apply to a scene file (" + config.scene + "): edit the file");
   r.dt = config.dt > 0.0 ? config.dt : info.default_dt;
   const double t_end = config.t_end >= 0.0 ? config.t_end : info.default_t_end;
   r.choice.method = config.method;
@@ -134,7 +138,7 @@ PreparedRun prepare_run(const RunConfig& config) {
 
 RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
                            Progress* progress, Vector* final_q) {
-  const SceneInfo& info = *run.info;
+  const SceneInfo& info = run.info;
   const MethodChoice& choice = run.choice;
   const double dt = run.dt;
   const long steps = run.steps;
@@ -214,9 +218,9 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
 RunSummary run_scene(const RunConfig& config) {
   const auto start_time = Clock::now();
   const PreparedRun run = prepare_run(config);
-  Parameters params = run.info->defaults();
+  Parameters params = run.info.defaults();
   for (const auto& a : config.assignments) params.assign(a);
-  Progress progress(run.info->name, run.steps);
+  Progress progress(run.info.name, run.steps);
   RunSummary summary = integrate_scene(run, params, config, &progress, nullptr);
   progress.finish();
   summary.wall_s = seconds_since(start_time);

@@ -9,7 +9,7 @@
 namespace nonholo::scenarios {
 
 struct PreparedRun {
-  const SceneInfo* info = nullptr;
+  SceneInfo info;  // a built-in scene or one read from a file
   MethodChoice choice;
   double dt = 0.0;
   long steps = 0;

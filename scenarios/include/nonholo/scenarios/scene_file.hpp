@@ -1,0 +1,37 @@
+#pragma once
+// Scene files: `nonholo run FILE.json` builds a planar multibody system from a small
+// catalogue instead of a built-in scene.
+//
+//   {
+//     "dt": 0.01, "t_end": 10,                                  (optional)
+//     "bodies": [ {"name": "lead", "mass": 1, "inertia": 1,
+//                  "position": [0, 0], "heading": 0,            (default 0)
+//                  "velocity": [1, 0], "turn_rate": 0.5}, ...], (guess; default 0)
+//     "constraints": [ {"type": "knife_edge", "body": 0, "offset": 0.2},
+//                      {"type": "hitch", "bodies": [0, 1], "rear": 0.5, "front": 0.5}, ...],
+//     "couplings":   [ {"type": "torsional_spring", "bodies": [0, 1], "stiffness": 1,
+//                       "rest_angle": 0}, ...],
+//     "forces":      [ {"type": "thrust" | "torque", "body": 0, "value": 0,
+//                       "amplitude": 1, "omega": 1, "phase": 0}, ...]
+//   }
+//
+// Body i has coordinates x<i>, y<i>, theta<i>; a knife edge sits `offset` behind the centre;
+// a hitch joins the point `rear` behind body a's centre to the point `front` ahead of body
+// b's centre (a holonomic constraint, closed at the start); a spring pulls theta_a - theta_b
+// towards rest_angle; a thrust acts along the body's heading, a torque on its angle, both
+// value + amplitude sin(omega t + phase).
+#include <nonholo/scenarios/scene.hpp>
+
+#include <string>
+
+namespace nonholo::scenarios {
+
+// True when `name` should be read as a scene file (it ends in .json).
+bool is_scene_file(const std::string& name);
+
+// Reads and checks the file; the SceneInfo takes no parameters. Every error is a
+// std::invalid_argument naming the file, the position (line and column for syntax, the
+// path such as bodies[1].mass otherwise) and the problem.
+SceneInfo load_scene_file(const std::string& path);
+
+}  // namespace nonholo::scenarios

@@ -1,0 +1,374 @@
+#include <nonholo/scenarios/scene_file.hpp>
+
+#include <nonholo/model_builder.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace nonholo::scenarios {
+namespace {
+
+using json = nlohmann::json;
+
+struct Body {
+  double mass, inertia, x, y, heading, vx, vy, turn_rate;
+};
+struct Knife {
+  int body;
+  double offset;
+};
+struct Hitch {
+  int a, b;
+  double rear, front;
+};
+struct Spring {
+  int a, b;
+  double stiffness, rest;
+};
+struct Drive {
+  bool thrust;
+  int body;
+  double value, amplitude, omega, phase;
+  double at(double t) const { return value + amplitude * std::sin(omega * t + phase); }
+};
+struct System {
+  std::vector<Body> bodies;
+  std::vector<Knife> knives;
+  std::vector<Hitch> hitches;
+  std::vector<Spring> springs;
+  std::vector<Drive> drives;
+  double dt = 0.01, t_end = 10.0;
+};
+
+// Reads fields with errors that name the file and the path of the value.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+  [[noreturn]] void fail(const std::string& where, const std::string& what) const {
+    throw std::invalid_argument(file_ + ": " + where + ": " + what);
+  }
+  void keys(const json& j, const std::string& where, const std::set<std::string>& allowed) const {
+    if (!j.is_object()) fail(where, "expected an object, got " + std::string(j.type_name()));
+    for (auto it = j.begin(); it != j.end(); ++it)
+      if (!allowed.count(it.key())) {
+        std::string known;
+        for (const auto& k : allowed) known += (known.empty() ? "" : ", ") + k;
+        fail(where, "unknown key '" + it.key() + "' (known: " + known + ")");
+      }
+  }
+  double number(const json& j, const std::string& where, const char* key, const double* fallback = nullptr) const {
+    const std::string path = where + "." + key;
+    if (!j.contains(key)) {
+      if (fallback) return *fallback;
+      fail(path, "missing (a number is required)");
+    }
+    const json& v = j.at(key);
+    if (!v.is_number()) fail(path, std::string("expected a number, got ") + v.type_name());
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) fail(path, "is not finite");
+    return x;
+  }
+  double positive(const json& j, const std::string& where, const char* key) const {
+    const double x = number(j, where, key);
+    if (!(x > 0.0)) {
+      std::ostringstream os;
+      os << "must be positive, got " << x;
+      fail(where + "." + key, os.str());
+    }
+    return x;
+  }
+  std::vector<double> numbers(const json& j, const std::string& where, const char* key, std::size_t n,
+                              bool required) const {
+    const std::string path = where + "." + key;
+    if (!j.contains(key)) {
+      if (required) fail(path, "missing (" + std::to_string(n) + " numbers are required)");
+      return std::vector<double>(n, 0.0);
+    }
+    const json& v = j.at(key);
+    if (!v.is_array() || v.size() != n)
+      fail(path, "expected " + std::to_string(n) + " numbers, got " +
+                     (v.is_array() ? std::to_string(v.size()) + " entries" : std::string(v.type_name())));
+    std::vector<double> out;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!v[i].is_number()) fail(path + "[" + std::to_string(i) + "]", std::string("expected a number, got ") + v[i].type_name());
+      out.push_back(v[i].get<double>());
+      if (!std::isfinite(out.back())) fail(path + "[" + std::to_string(i) + "]", "is not finite");
+    }
+    return out;
+  }
+  int body(const json& j, const std::string& where, const std::string& key, int bodies) const {
+    const std::string path = where + "." + key;
+    if (!j.is_number_integer()) fail(path, std::string("expected a body index, got ") + j.type_name());
+    const long b = j.get<long>();
+    if (b < 0 || b >= bodies)
+      fail(path, "body " + std::to_string(b) + " does not exist (the file has " + std::to_string(bodies) +
+                     " bodies, 0 to " + std::to_string(bodies - 1) + ")");
+    return static_cast<int>(b);
+  }
+  std::pair<int, int> pair(const json& j, const std::string& where, int bodies) const {
+    if (!j.contains("bodies")) fail(where + ".bodies", "missing (two body indices are required)");
+    const json& v = j.at("bodies");
+    if (!v.is_array() || v.size() != 2)
+      fail(where + ".bodies", "expected two body indices, got " +
+                                  (v.is_array() ? std::to_string(v.size()) + " entries" : std::string(v.type_name())));
+    const int a = body(v[0], where, "bodies[0]", bodies), b = body(v[1], where, "bodies[1]", bodies);
+    if (a == b) fail(where + ".bodies", "a body cannot be joined to itself");
+    return {a, b};
+  }
+  std::string type(const json& j, const std::string& where) const {
+    if (!j.contains("type") || !j.at("type").is_string()) fail(where + ".type", "missing (a string is required)");
+    return j.at("type").get<std::string>();
+  }
+
+ private:
+  std::string file_;
+};
+
+std::string line_and_column(const std::string& text, std::size_t byte) {
+  std::size_t line = 1, column = 1;
+  for (std::size_t i = 0; i < byte && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(column);
+}
+
+System read_system(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument(path + ": cannot be read");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // e.what() is "[json.exception.parse_error.101] parse error at line L, column C: ..."
+    std::string what = e.what();
+    const auto colon = what.find(": ", what.find("parse error"));
+    throw std::invalid_argument(path + ": " + line_and_column(text, e.byte > 0 ? e.byte - 1 : 0) + ": " +
+                                (colon == std::string::npos ? what : what.substr(colon + 2)));
+  } catch (const json::out_of_range& e) {
+    // "number overflow parsing '1e999'": no position from the library, so find the number.
+    const std::string what = e.what();
+    const auto open = what.find('\''), close = what.rfind('\'');
+    const std::string token = open != std::string::npos && close > open ? what.substr(open + 1, close - open - 1) : "";
+    const auto at = token.empty() ? std::string::npos : text.find(token);
+    throw std::invalid_argument(path + ": " + (at == std::string::npos ? "" : line_and_column(text, at) + ": ") +
+                                "the number " + token + " is not a finite double");
+  } catch (const json::exception& e) {
+    throw std::invalid_argument(path + ": " + e.what());
+  }
+  const Reader r(path);
+  r.keys(root, "(top level)", {"dt", "t_end", "bodies", "constraints", "couplings", "forces", "description"});
+  System s;
+  const double dt = 0.01, t_end = 10.0;
+  s.dt = r.number(root, "(top level)", "dt", &dt);
+  s.t_end = r.number(root, "(top level)", "t_end", &t_end);
+  if (!(s.dt > 0.0)) r.fail("dt", "must be positive");
+  if (!(s.t_end >= 0.0)) r.fail("t_end", "must not be negative");
+  if (!root.contains("bodies") || !root.at("bodies").is_array() || root.at("bodies").empty())
+    r.fail("bodies", "missing (an array of at least one body is required)");
+  const json& bodies = root.at("bodies");
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const std::string where = "bodies[" + std::to_string(i) + "]";
+    const json& b = bodies[i];
+    r.keys(b, where, {"name", "mass", "inertia", "position", "heading", "velocity", "turn_rate"});
+    const double zero = 0.0;
+    const auto pos = r.numbers(b, where, "position", 2, true);
+    const auto vel = r.numbers(b, where, "velocity", 2, false);
+    s.bodies.push_back({r.positive(b, where, "mass"), r.positive(b, where, "inertia"), pos[0], pos[1],
+                        r.number(b, where, "heading", &zero), vel[0], vel[1], r.number(b, where, "turn_rate", &zero)});
+  }
+  const int n = static_cast<int>(s.bodies.size());
+  auto list = [&](const char* key) -> json {
+    if (!root.contains(key)) return json::array();
+    if (!root.at(key).is_array()) r.fail(key, std::string("expected an array, got ") + root.at(key).type_name());
+    return root.at(key);
+  };
+  const json constraints = list("constraints");
+  for (std::size_t i = 0; i < constraints.size(); ++i) {
+    const std::string where = "constraints[" + std::to_string(i) + "]";
+    const json& c = constraints[i];
+    const std::string type = r.type(c, where);
+    if (type == "knife_edge") {
+      r.keys(c, where, {"type", "body", "offset"});
+      if (!c.contains("body")) r.fail(where + ".body", "missing (a body index is required)");
+      const double zero = 0.0;
+      s.knives.push_back({r.body(c.at("body"), where, "body", n), r.number(c, where, "offset", &zero)});
+    } else if (type == "hitch") {
+      r.keys(c, where, {"type", "bodies", "rear", "front"});
+      const auto [a, b] = r.pair(c, where, n);
+      s.hitches.push_back({a, b, r.number(c, where, "rear"), r.number(c, where, "front")});
+    } else {
+      r.fail(where + ".type", "unknown constraint type '" + type + "' (known: knife_edge, hitch)");
+    }
+  }
+  const json couplings = list("couplings");
+  for (std::size_t i = 0; i < couplings.size(); ++i) {
+    const std::string where = "couplings[" + std::to_string(i) + "]";
+    const json& c = couplings[i];
+    const std::string type = r.type(c, where);
+    if (type != "torsional_spring")
+      r.fail(where + ".type", "unknown coupling type '" + type + "' (known: torsional_spring)");
+    r.keys(c, where, {"type", "bodies", "stiffness", "rest_angle"});
+    const auto [a, b] = r.pair(c, where, n);
+    const double zero = 0.0;
+    s.springs.push_back({a, b, r.positive(c, where, "stiffness"), r.number(c, where, "rest_angle", &zero)});
+  }
+  const json forces = list("forces");
+  for (std::size_t i = 0; i < forces.size(); ++i) {
+    const std::string where = "forces[" + std::to_string(i) + "]";
+    const json& f = forces[i];
+    const std::string type = r.type(f, where);
+    if (type != "thrust" && type != "torque")
+      r.fail(where + ".type", "unknown force type '" + type + "' (known: thrust, torque)");
+    r.keys(f, where, {"type", "body", "value", "amplitude", "omega", "phase"});
+    if (!f.contains("body")) r.fail(where + ".body", "missing (a body index is required)");
+    const double zero = 0.0;
+    s.drives.push_back({type == "thrust", r.body(f.at("body"), where, "body", n), r.number(f, where, "value", &zero),
+                        r.number(f, where, "amplitude", &zero), r.number(f, where, "omega", &zero),
+                        r.number(f, where, "phase", &zero)});
+  }
+  // Hitches must be closed at the start.
+  for (std::size_t i = 0; i < s.hitches.size(); ++i) {
+    const Hitch& h = s.hitches[i];
+    const Body &a = s.bodies[static_cast<std::size_t>(h.a)], &b = s.bodies[static_cast<std::size_t>(h.b)];
+    const double gx = a.x - h.rear * std::cos(a.heading) - b.x - h.front * std::cos(b.heading);
+    const double gy = a.y - h.rear * std::sin(a.heading) - b.y - h.front * std::sin(b.heading);
+    const double gap = std::hypot(gx, gy);
+    if (gap > 1e-9 * (1.0 + std::abs(a.x) + std::abs(a.y))) {
+      std::ostringstream os;
+      os << "the hitch is open at the start: its two points are " << gap
+         << " apart (place body " << h.b << " so that they meet)";
+      r.fail("constraints hitch " + std::to_string(i), os.str());
+    }
+  }
+  return s;
+}
+
+SceneSetup build_system(const System& s) {
+  const int n = static_cast<int>(s.bodies.size());
+  ModelBuilder b;
+  for (int i = 0; i < n; ++i) {
+    const std::string k = std::to_string(i);
+    b.add_planar_body({"x" + k, "y" + k, "theta" + k}, s.bodies[static_cast<std::size_t>(i)].mass,
+                      s.bodies[static_cast<std::size_t>(i)].inertia);
+  }
+  for (const Knife& k : s.knives) b.add_one_form({3 * k.body, 3 * k.body + 1, 3 * k.body + 2});
+  for (const Hitch& h : s.hitches) {
+    b.add_holonomic_row({3 * h.a, 3 * h.a + 2, 3 * h.b, 3 * h.b + 2});
+    b.add_holonomic_row({3 * h.a + 1, 3 * h.a + 2, 3 * h.b + 1, 3 * h.b + 2});
+  }
+  const auto knives = s.knives;
+  const auto hitches = s.hitches;
+  if (!knives.empty() || !hitches.empty()) {
+    b.one_form_values([knives, hitches](ConstVecRef q, VecRef mu) {
+      int v = 0;
+      for (const Knife& k : knives) {
+        const double th = q[3 * k.body + 2];
+        mu[v++] = std::sin(th);
+        mu[v++] = -std::cos(th);
+        mu[v++] = k.offset;
+      }
+      for (const Hitch& h : hitches) {
+        const double ta = q[3 * h.a + 2], tb = q[3 * h.b + 2];
+        mu[v] = 1.0, mu[v + 1] = h.rear * std::sin(ta), mu[v + 2] = -1.0, mu[v + 3] = h.front * std::sin(tb);
+        mu[v + 4] = 1.0, mu[v + 5] = -h.rear * std::cos(ta), mu[v + 6] = -1.0, mu[v + 7] = -h.front * std::cos(tb);
+        v += 8;
+      }
+    });
+    b.one_form_bias([knives, hitches](ConstVecRef q, ConstVecRef v, VecRef bias) {
+      int r = 0;
+      for (const Knife& k : knives) {
+        const int o = 3 * k.body;
+        bias[r++] = v[o + 2] * (std::cos(q[o + 2]) * v[o] + std::sin(q[o + 2]) * v[o + 1]);
+      }
+      for (const Hitch& h : hitches) {
+        const double ta = q[3 * h.a + 2], tb = q[3 * h.b + 2], wa = v[3 * h.a + 2], wb = v[3 * h.b + 2];
+        bias[r++] = h.rear * std::cos(ta) * wa * wa + h.front * std::cos(tb) * wb * wb;
+        bias[r++] = h.rear * std::sin(ta) * wa * wa + h.front * std::sin(tb) * wb * wb;
+      }
+    });
+  }
+  if (!hitches.empty())
+    b.gap([hitches](ConstVecRef q, VecRef g) {
+      int r = 0;
+      for (const Hitch& h : hitches) {
+        const double ta = q[3 * h.a + 2], tb = q[3 * h.b + 2];
+        g[r++] = q[3 * h.a] - h.rear * std::cos(ta) - q[3 * h.b] - h.front * std::cos(tb);
+        g[r++] = q[3 * h.a + 1] - h.rear * std::sin(ta) - q[3 * h.b + 1] - h.front * std::sin(tb);
+      }
+    });
+  const auto springs = s.springs;
+  if (!springs.empty())
+    b.potential(
+        [springs](ConstVecRef q) {
+          double v = 0.0;
+          for (const Spring& sp : springs) {
+            const double d = q[3 * sp.a + 2] - q[3 * sp.b + 2] - sp.rest;
+            v += 0.5 * sp.stiffness * d * d;
+          }
+          return v;
+        },
+        [springs](ConstVecRef q, VecRef g) {
+          g.setZero();
+          for (const Spring& sp : springs) {
+            const double t = sp.stiffness * (q[3 * sp.a + 2] - q[3 * sp.b + 2] - sp.rest);
+            g[3 * sp.a + 2] += t;
+            g[3 * sp.b + 2] -= t;
+          }
+        });
+  const auto drives = s.drives;
+  if (!drives.empty())
+    b.external_force([drives](double t, ConstVecRef q, VecRef f) {
+      f.setZero();
+      for (const Drive& d : drives) {
+        const int o = 3 * d.body;
+        const double u = d.at(t);
+        if (d.thrust) {
+          f[o] += u * std::cos(q[o + 2]);
+          f[o + 1] += u * std::sin(q[o + 2]);
+        } else {
+          f[o + 2] += u;
+        }
+      }
+    });
+  SceneSetup setup{b.build(), 0.0, Vector::Zero(3 * n), Vector::Zero(3 * n)};
+  for (int i = 0; i < n; ++i) {
+    const Body& body = s.bodies[static_cast<std::size_t>(i)];
+    setup.q0.segment<3>(3 * i) << body.x, body.y, body.heading;
+    setup.v0.segment<3>(3 * i) << body.vx, body.vy, body.turn_rate;
+  }
+  return setup;
+}
+
+}  // namespace
+
+bool is_scene_file(const std::string& name) {
+  return name.size() > 5 && name.compare(name.size() - 5, 5, ".json") == 0;
+}
+
+SceneInfo load_scene_file(const std::string& path) {
+  auto system = std::make_shared<System>(read_system(path));
+  SceneInfo info;
+  info.name = path;
+  info.description = "scene file " + path;
+  info.default_dt = system->dt;
+  info.default_t_end = system->t_end;
+  info.build = [system](const Parameters&) { return build_system(*system); };
+  return info;
+}
+
+}  // namespace nonholo::scenarios
