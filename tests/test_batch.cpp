@@ -217,5 +217,18 @@ TEST(Progress, NothingExtraWhenStderrIsNotATerminal) {
   std::remove(err.c_str());
 }
 
+// On a terminal (a pseudo-terminal from script(1)) a long run draws the bar on stderr.
+TEST(Progress, DrawnOnATerminal) {
+  if (std::system("command -v script > /dev/null 2>&1") != 0) GTEST_SKIP() << "script(1) is not installed";
+  const std::string log = temp("tty.txt");
+  const std::string cmd = "script -qc '" + std::string(NONHOLO_CLI) +
+                          " run sleigh_chain --set bodies=20000 --t-end 2 > /dev/null' /dev/null > " + log;
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const std::string text = slurp(log);
+  EXPECT_THAT(text, ::testing::HasSubstr("sleigh_chain [#"));
+  EXPECT_THAT(text, ::testing::HasSubstr("%"));
+  std::remove(log.c_str());
+}
+
 }  // namespace
 }  // namespace nonholo
