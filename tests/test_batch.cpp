@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "support/expect_error.hpp"
+#include "support/run_cli.hpp"
 #include "support/random_model.hpp"
 
 namespace nonholo {
@@ -98,19 +99,9 @@ TEST(Batch, OneBadTrajectoryDoesNotStopOrCorruptTheOthers) {
   for (long i = 0; i < 8; ++i) EXPECT_EQ(errors[static_cast<std::size_t>(i)], i == 3 ? "job 3 broke" : "");
 }
 
-struct Cli {
-  int code;
-  std::string out, err;
-};
+using Cli = testing::CliResult;
 
-Cli cli(std::vector<std::string> args) {
-  args.insert(args.begin(), "nonholo");
-  std::vector<const char*> argv;
-  for (const auto& a : args) argv.push_back(a.c_str());
-  std::ostringstream out, err;
-  const int code = scenarios::run_command_line(static_cast<int>(argv.size()), argv.data(), out, err);
-  return {code, out.str(), err.str()};
-}
+Cli cli(std::vector<std::string> args) { return testing::run_cli(std::move(args)); }
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path);

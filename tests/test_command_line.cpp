@@ -14,25 +14,17 @@
 #include <map>
 #include <sstream>
 
+#include "support/run_cli.hpp"
+
 namespace nonholo {
 namespace {
 
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-struct Result {
-  int code;
-  std::string out, err;
-};
+using Result = testing::CliResult;
 
-Result run(std::vector<std::string> args) {
-  args.insert(args.begin(), "nonholo");
-  std::vector<const char*> argv;
-  for (const auto& a : args) argv.push_back(a.c_str());
-  std::ostringstream out, err;
-  const int code = scenarios::run_command_line(static_cast<int>(argv.size()), argv.data(), out, err);
-  return {code, out.str(), err.str()};
-}
+Result run(std::vector<std::string> args) { return testing::run_cli(std::move(args)); }
 
 std::map<std::string, std::string> parse_summary(const std::string& line) {
   std::map<std::string, std::string> kv;

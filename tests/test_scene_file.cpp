@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "support/expect_error.hpp"
+#include "support/run_cli.hpp"
 
 namespace nonholo {
 namespace {
@@ -44,19 +45,9 @@ TEST(SceneFile, SpellsOutTheSleighChain) {
   EXPECT_LE((a.q - b.q).lpNorm<Eigen::Infinity>(), 1e-12);
 }
 
-struct Cli {
-  int code;
-  std::string out, err;
-};
+using Cli = testing::CliResult;
 
-Cli cli(std::vector<std::string> args) {
-  args.insert(args.begin(), "nonholo");
-  std::vector<const char*> argv;
-  for (const auto& a : args) argv.push_back(a.c_str());
-  std::ostringstream out, err;
-  const int code = scenarios::run_command_line(static_cast<int>(argv.size()), argv.data(), out, err);
-  return {code, out.str(), err.str()};
-}
+Cli cli(std::vector<std::string> args) { return testing::run_cli(std::move(args)); }
 
 // Writes `text` to a temporary .json file and runs it; expects exit 1 and every fragment.
 void expect_file_error(const std::string& text, const std::vector<std::string>& fragments) {
