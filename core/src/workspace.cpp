@@ -13,12 +13,13 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   mu_values.setZero(model.num_one_form_values());
   scratch_nnz.setZero(model.num_one_form_values());
   scratch_nnz2.setZero(model.num_one_form_values());
-  c_values.setZero(model.gram().pattern().nnz());
   rhs.setZero(m);
   lambda.setZero(m);
   scratch_m.setZero(m);
   gap.setZero(model.num_holonomic());
   if (m > 0) factor_ = sparse::make_factorization(options.backend, model.gram().pattern());
+  // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
+  if (factor_ && !factor_->values_in_place()) c_values.setZero(model.gram().pattern().nnz());
 }
 
 sparse::Backend Workspace::backend() const {

@@ -96,6 +96,9 @@ BatchResult run_batch(const BatchConfig& config) {
   result.trajectories = config.count;
   result.threads = threads;
   RunSummary& agg = result.aggregate;
+  agg.scene = prepared.info.name;
+  agg.method = config.run.method;
+  agg.dt = prepared.dt;
   double loop_ns = 0.0;
   for (std::size_t i = 0; i < rows.size(); ++i) {
     Row& r = rows[i];
@@ -105,16 +108,13 @@ BatchResult run_batch(const BatchConfig& config) {
       r.summary.message = errors[i];
     }
     const RunSummary& s = r.summary;
-    if (i == 0 || agg.scene.empty()) {
-      agg.scene = prepared.info.name;
-      agg.method = config.run.method;
+    if (agg.backend.empty() && !s.backend.empty()) {  // the first trajectory that was set up
       agg.hitch = s.hitch;
       agg.restart = s.restart;
       agg.bodies = s.bodies;
       agg.backend = s.backend;
-      agg.dt = prepared.dt;
     }
-    if (s.status != Status::Ok || !r.error.empty()) {
+    if (s.status != Status::Ok) {
       if (result.failed++ == 0) result.first_failure = "trajectory " + std::to_string(i) + ": " + s.message;
       agg.status = s.status;
     }

@@ -51,7 +51,7 @@ class Workspace {
   // Scratch vectors of size n (coordinates) ...
   Vector q_next, p_half, p_hat, p_next, velocity, applied, force_next, scratch_n, scratch_n2;
   // ... of size nnz(mu), nnz(C) and m (one-form rows). c_values holds C only for the
-  // factorisations without an in-place path (not CHOLMOD).
+  // factorisations without an in-place path (it is empty with CHOLMOD).
   Vector mu_values, c_values, rhs, lambda, scratch_m, scratch_nnz, scratch_nnz2;
   // ... and of size num_holonomic() (hitch gaps g(q)).
   Vector gap;
