@@ -12,6 +12,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <memory>
 #include <string>
@@ -85,6 +86,32 @@ void step_loop(benchmark::State& s, bool hitched, Backend backend, HitchMode mod
   report(s, n, c.ws.backend_name());
 }
 
+// The cost of controlling the period-2 mode (README "Long runs"), one-form chain: the paper's
+// plain method without measuring the mode (the bare step), the plain method measuring it
+// (what --restart 0 does), the default (automatic restarts, measurement spaced by the
+// predicted growth, at most 8 steps apart) and the default measuring at every step.
+void restart_loop(benchmark::State& s, const char* restart, int monitor_every) {
+  const long n = s.range(0);
+  Chain& c = chain(n, true, Backend::Auto, HitchMode::OneForm);
+  RattleOptions o = c.options;
+  set_restart(o, restart);
+  o.monitor_every = monitor_every;
+  const long restarts = c.state.restarts;
+  long measured = 0;
+  for (auto _ : s) {
+    if (step(c.setup.model, c.ws, c.state, o) != Status::Ok) s.SkipWithError(c.ws.message());
+    measured += !std::isnan(c.ws.parasitic);
+    benchmark::DoNotOptimize(c.state.q.data());
+  }
+  s.counters["restarts"] = static_cast<double>(c.state.restarts - restarts);
+  s.counters["measured"] = benchmark::Counter(static_cast<double>(measured), benchmark::Counter::kAvgIterations);
+  report(s, n, c.ws.backend_name());
+}
+void ChainStep_OneForm_Plain(benchmark::State& s) { restart_loop(s, "0", 0); }
+void ChainStep_OneForm_PlainMeasured(benchmark::State& s) { restart_loop(s, "0", 8); }
+void ChainStep_OneForm_Auto(benchmark::State& s) { restart_loop(s, "auto", 8); }
+void ChainStep_OneForm_AutoEveryStep(benchmark::State& s) { restart_loop(s, "auto", 1); }
+
 void ChainStep_OneForm(benchmark::State& s) { step_loop(s, true, Backend::Auto, HitchMode::OneForm); }
 void ChainStep_Holonomic(benchmark::State& s) { step_loop(s, true, Backend::Auto, HitchMode::Holonomic); }
 void SpringChainStep_BlockDiagonal(benchmark::State& s) {
@@ -143,7 +170,18 @@ void sizes(benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMicrosecond)->UseRealTime();
 }
 
+// On these shared machines the minimum over repetitions is the least disturbed estimate of
+// a ratio of costs; run with --benchmark_repetitions=15 --benchmark_enable_random_interleaving.
+void restart_sizes(benchmark::internal::Benchmark* b) {
+  b->Arg(1000)->Arg(100000)->Unit(benchmark::kMicrosecond)->UseRealTime();
+  b->ComputeStatistics("min", [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); });
+}
+
 BENCHMARK(ChainStep_OneForm)->Apply(sizes);
+BENCHMARK(ChainStep_OneForm_Plain)->Apply(restart_sizes);
+BENCHMARK(ChainStep_OneForm_PlainMeasured)->Apply(restart_sizes);
+BENCHMARK(ChainStep_OneForm_Auto)->Apply(restart_sizes);
+BENCHMARK(ChainStep_OneForm_AutoEveryStep)->Apply(restart_sizes);
 BENCHMARK(ChainStep_Holonomic)->Apply(sizes);
 BENCHMARK(ChainFactorSolve_Cholmod)->Apply(sizes);
 BENCHMARK(ChainFactorSolve_LapackBanded)->Apply(sizes);

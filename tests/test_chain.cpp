@@ -155,14 +155,15 @@ struct RunStats {
   int max_iterations = 0;
 };
 
-RunStats simulate(const scenarios::SceneSetup& setup, HitchMode mode, long steps, double h, int restart = 0) {
+RunStats simulate(const scenarios::SceneSetup& setup, HitchMode mode, long steps, double h,
+                  const char* restart = "auto") {
   const Model& model = setup.model;
   Workspace ws(model);
   State s = start_from_velocity(model, ws, 0.0, setup.q0, setup.v0);
   RattleOptions o;
   o.h = h;
   o.hitch = mode;
-  o.restart_every = restart;
+  set_restart(o, restart);
   const Diagnostics d0 = diagnose(model, ws, s, h);
   RunStats r;
   for (long k = 0; k < steps; ++k) {
@@ -191,8 +192,9 @@ TEST(Chain, HolonomicModeKeepsTheHitchGapBelow1e10) {
   EXPECT_GT(loose.gap_max, 1e-8);
 
   const auto train = chain("wheeled_train", {"bodies=100"});
-  const RunStats driven = simulate(train, HitchMode::Holonomic, 10000, 0.01, 10);
-  std::cout << "[chain gap] wheeled_train 100 bodies, 10^4 steps: holonomic max |g| " << driven.gap_max
+  const RunStats driven = simulate(train, HitchMode::Holonomic, 10000, 0.01);
+  std::cout << "[chain gap] wheeled_train 100 bodies, 10^4 steps (automatic restarts): holonomic max |g| "
+            << driven.gap_max
             << " (at most " << driven.max_iterations << " corrections per step)\n";
   EXPECT_LE(driven.gap_max, 1e-10);
 }
@@ -297,7 +299,21 @@ TEST(Chain, GapIterationFailureLeavesTheStateUnchanged) {
   testing::expect_error([&] { validate(bad); }, "max_gap_iterations = 0 must be at least 1");
   bad = RattleOptions{};
   bad.restart_every = -2;
-  testing::expect_error([&] { validate(bad); }, "restart_every = -2 must be 0 (never) or positive");
+  testing::expect_error([&] { validate(bad); }, "restart_every = -2 must not be negative");
+  bad = RattleOptions{};
+  bad.restart = RestartMode::Periodic;
+  testing::expect_error([&] { validate(bad); }, "restart_every = 0 must be at least 1 with RestartMode::Periodic");
+  bad = RattleOptions{};
+  bad.monitor_every = 0;
+  testing::expect_error([&] { validate(bad); }, "monitor_every = 0 must be at least 1 with RestartMode::Auto");
+  bad.restart = RestartMode::Never;
+  EXPECT_NO_THROW(validate(bad));
+  bad.restart_tolerance = -1.0;
+  testing::expect_error([&] { validate(bad); }, "restart_tolerance = -1 must be 0 (h^3) or positive and finite");
+  testing::expect_error([] {
+    RattleOptions parsed;
+    set_restart(parsed, "sometimes");
+  }, "restart 'sometimes': expected auto, 0 (never) or a number of steps K from 1 to 1e9");
   testing::expect_error([] { hitch_mode_from_string("rigid"); },
                         "unknown hitch mode 'rigid' (valid: oneform, holonomic)");
 }

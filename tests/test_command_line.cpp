@@ -68,7 +68,7 @@ TEST(CommandLine, ChainSummaryReportsBodiesGapHitchAndBackend) {
     EXPECT_TRUE(kv.count(key)) << "lacks " << key;
   EXPECT_EQ(kv.at("bodies"), "20");
   EXPECT_EQ(kv.at("hitch"), "holonomic");
-  EXPECT_EQ(kv.at("restart"), "0");
+  EXPECT_EQ(kv.at("restart"), "auto");
   EXPECT_EQ(kv.at("backend"), "cholmod-natural");
   EXPECT_LE(std::stod(kv.at("gap_max")), 1e-10);
   EXPECT_NEAR(std::stod(kv.at("ns_per_body_step")) * 20, std::stod(kv.at("ns_per_step")),
@@ -87,7 +87,7 @@ TEST(CommandLine, ChainSummaryReportsBodiesGapHitchAndBackend) {
   EXPECT_EQ(kv.at("backend"), "block-diagonal");
   EXPECT_EQ(kv.at("gap_max"), "0");
   kv = parse_summary(run({"run", "wheeled_train", "--set", "bodies=30", "--t-end", "1"}).out);
-  EXPECT_EQ(kv.at("restart"), "10") << "the train's default";
+  EXPECT_EQ(kv.at("restart"), "auto") << "every scene's default";
   EXPECT_EQ(kv.at("status"), "ok");
 }
 
@@ -199,12 +199,96 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"run", "sleigh", "--tol", "1e-6"}, "--tol applies to the methods arkode-dp5 and arkode-verner");
   expect_failure({"run", "sleigh", "--method", "rk4", "--hitch", "oneform"}, "--hitch applies to the reflection method only");
   expect_failure({"run", "sleigh", "--method", "arkode-dp5", "--tol", "0"}, "tolerance = 0 must lie in [1e-15, 1)");
-  expect_failure({"run", "sleigh_chain", "--restart", "-1"}, "--restart -1: must be 0 (never) or positive");
+  expect_failure({"run", "sleigh_chain", "--restart", "-1"},
+                 "--restart '-1': expected auto, 0 (never) or a number of steps K from 1 to 1e9");
+  expect_failure({"run", "sleigh_chain", "--restart", "often"}, "--restart 'often': expected auto, 0 (never)");
+  expect_failure({"run", "sleigh_chain", "--restart-tol", "0"}, "--restart-tol 0.000000: must be positive");
+  expect_failure({"run", "sleigh_chain", "--restart", "10", "--restart-tol", "1e-6"},
+                 "--restart-tol applies to --restart auto");
+  expect_failure({"run", "sleigh_chain", "--monitor-every", "-3"}, "--monitor-every -3: must be 0 (never) or positive");
+  expect_failure({"run", "sleigh_chain", "--monitor-every", "0"},
+                 "--monitor-every 0 turns off the measurement that --restart auto needs");
+  expect_failure({"run", "sleigh", "--method", "rk4", "--restart", "auto"}, "--restart applies to the reflection method only");
   expect_failure({"run", "sleigh_chain", "--set", "bodies=0"}, "parameter bodies = 0 must be a whole number");
   expect_failure({"run", "sleigh_chain", "--backend", "block-diagonal"},
                  "backend block-diagonal: C has a coupled block of 28 one-forms");
   // Dependent one-forms at the start: wheels on one line (r = 0, phi0 = 0).
   expect_failure({"run", "snakeboard", "--set", "r=0", "--set", "phi0=0"}, "dependent");
+}
+
+TEST(CommandLine, RestartsAreReportedAndChosen) {
+  // The default: automatic restarts, none needed on the sleigh before t = 100.
+  Result r = run({"run", "sleigh", "--t-end", "100"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto kv = parse_summary(r.out);
+  EXPECT_EQ(kv.at("restart"), "auto");
+  EXPECT_LE(std::stod(kv.at("parasitic_max")), 2e-6) << "the tolerance dt^3, or just above it where it restarted";
+  EXPECT_EQ(r.err, "") << "no warning";
+  // The paper's plain method: by t = 100 the mode holds much of the energy, and the run says so.
+  r = run({"run", "sleigh", "--t-end", "100", "--restart", "0"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  kv = parse_summary(r.out);
+  EXPECT_EQ(kv.at("restart"), "0");
+  EXPECT_EQ(kv.at("restarts"), "0");
+  EXPECT_GT(std::stod(kv.at("parasitic_max")), 0.1);
+  EXPECT_GT(std::stod(kv.at("energy_rel_err_max")), 0.1);
+  EXPECT_LE(std::stod(kv.at("energy_post_rel_err_max")), 1e4 * 2.3e-16) << "exact: the mode is not an energy error";
+  EXPECT_THAT(r.err, HasSubstr("nonholo run: warning: the period-2 mode reached"));
+  EXPECT_THAT(r.err, HasSubstr("Use --restart auto"));
+  // Every K steps; no measurement at all.
+  kv = parse_summary(run({"run", "sleigh", "--t-end", "1", "--restart", "25"}).out);
+  EXPECT_EQ(kv.at("restart"), "25");
+  EXPECT_EQ(kv.at("restarts"), "4");
+  kv = parse_summary(run({"run", "sleigh", "--t-end", "1", "--restart", "0", "--monitor-every", "0"}).out);
+  EXPECT_EQ(kv.at("parasitic_max"), "nan") << "never measured";
+  // A tolerance so small that every measurement restarts.
+  kv = parse_summary(run({"run", "sleigh", "--t-end", "1", "--restart-tol", "1e-300", "--monitor-every", "1"}).out);
+  EXPECT_EQ(kv.at("restarts"), "100");
+  EXPECT_LE(std::stod(kv.at("energy_post_rel_err_max")), 1e-14) << "energy-exact restarts";
+  // Other methods have no multipliers to restart.
+  EXPECT_EQ(parse_summary(run({"run", "sleigh", "--method", "rk4"}).out).count("restarts"), 0u);
+}
+
+TEST(CommandLine, DrivenRunsReportTheWorkAndTheEnergyBalance) {
+  // The main job's scene, shorter: the energy is not an invariant; the work of the lead's
+  // force and the balance error of the discrete work-energy identity are reported instead.
+  Result r = run({"run", "wheeled_train", "--set", "bodies=50", "--t-end", "5"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto kv = parse_summary(r.out);
+  EXPECT_GT(std::stod(kv.at("work")), 10.0);
+  EXPECT_EQ(kv.count("energy_post_rel_err_max"), 0u);
+  EXPECT_LE(std::stod(kv.at("energy_balance_err_max")), 1e-5) << "holonomic hitches: their corrections";
+  EXPECT_LE(std::stod(kv.at("energy_rel_err_max")), 1e-3) << "net of the work to t_k: O(h^2)";
+  // One-form hitches: the identity holds to round-off, restarts included.
+  r = run({"run", "wheeled_train", "--set", "bodies=50", "--t-end", "5", "--hitch", "oneform"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  kv = parse_summary(r.out);
+  EXPECT_LE(std::stod(kv.at("energy_balance_err_max")), 1e-13);
+  EXPECT_GT(std::stol(kv.at("restarts")), 0);
+  // Methods without a discrete work identity do not claim an energy error.
+  kv = parse_summary(run({"run", "wheeled_train", "--set", "bodies=5", "--t-end", "1", "--method", "rk4"}).out);
+  EXPECT_EQ(kv.at("energy_rel_err_max"), "nan");
+  EXPECT_EQ(kv.count("work"), 0u);
+}
+
+TEST(CommandLine, FailureMessagesSayWhatWouldFixThem) {
+  // The position iteration fails because the period-2 mode has grown (plain method, driven
+  // train): restarts help, a smaller step does not.
+  Result r = run({"run", "wheeled_train", "--set", "bodies=30", "--restart", "0", "--t-end", "100"});
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.err, HasSubstr("gap-not-converged"));
+  EXPECT_THAT(r.err, HasSubstr("the period-2 mode carries"));
+  EXPECT_THAT(r.err, HasSubstr("turn on multiplier restarts (--restart auto"));
+  EXPECT_THAT(r.err, ::testing::Not(HasSubstr("warning"))) << "the failure says it all";
+  EXPECT_EQ(parse_summary(r.out).at("status"), "gap-not-converged");
+  // The same train with the defaults runs.
+  r = run({"run", "wheeled_train", "--set", "bodies=30", "--t-end", "100"});
+  EXPECT_EQ(r.code, 0) << r.err;
+  // A step too large for the position iteration: a smaller step helps.
+  r = run({"run", "sleigh_chain", "--set", "omega0=20", "--dt", "0.1"});
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.err, HasSubstr("the step is too large for the position iteration: reduce the step size (h = 0.1)"));
+  EXPECT_EQ(run({"run", "sleigh_chain", "--set", "omega0=20", "--dt", "0.01"}).code, 0);
 }
 
 TEST(CommandLine, FailedStepStopsTheRunKeepsTheCsvAndExitsWithTwo) {

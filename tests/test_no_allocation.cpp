@@ -52,7 +52,7 @@ TEST(NoAllocation, CounterSeesAllocations) {
 }
 
 // Every scene on every backend that can serve it (block-diagonal only where C is), both
-// hitch modes, and the multiplier restart of the wheeled train.
+// hitch modes, and every restart policy (a restart at every step included).
 TEST(NoAllocation, ScenesOnEveryBackend) {
   struct Case {
     std::string scene;
@@ -79,13 +79,20 @@ TEST(NoAllocation, ScenesOnEveryBackend) {
         if (backend == Backend::BlockDiagonal &&
             sparse::resolve_backend(Backend::Auto, setup.model.gram().pattern()) != Backend::BlockDiagonal)
           continue;  // C is coupled: the block-diagonal path refuses it (tested in test_backends)
-        RattleOptions options;
-        options.hitch = hitch;
-        options.restart_every = info.default_restart > 0 ? 7 : 0;
         ++served;
-        EXPECT_EQ(allocations_in_steps(setup.model, backend, setup.q0, setup.v0, options), 0)
-            << c.scene << " " << (c.sets.empty() ? "" : c.sets.back()) << " on "
-            << sparse::to_string(backend) << ", hitch " << to_string(hitch);
+        for (const char* restart : {"auto", "7", "0", "every step"}) {
+          RattleOptions options;
+          options.hitch = hitch;
+          if (std::string(restart) == "every step") {
+            options.restart_tolerance = 1e-300;  // auto, measuring and restarting at every step
+            options.monitor_every = 1;
+          }
+          else
+            set_restart(options, restart);
+          EXPECT_EQ(allocations_in_steps(setup.model, backend, setup.q0, setup.v0, options), 0)
+              << c.scene << " " << (c.sets.empty() ? "" : c.sets.back()) << " on " << sparse::to_string(backend)
+              << ", hitch " << to_string(hitch) << ", restart " << restart;
+        }
       }
     EXPECT_GE(served, 3) << c.scene;
   }

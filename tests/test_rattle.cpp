@@ -121,6 +121,9 @@ TEST(Rattle, FailedStepsLeaveTheStateUnchanged) {
     EXPECT_TRUE(status == Status::DependentOneForms || status == Status::NearlyDependentOneForms)
         << to_string(status);
     EXPECT_THAT(ws.message(), HasSubstr("row"));
+    // Every failure says what would fix it.
+    EXPECT_THAT(ws.message(), status == Status::DependentOneForms ? HasSubstr("remove a redundant constraint")
+                                                                   : HasSubstr("reduce the step size"));
     EXPECT_TRUE(bitwise_equal(s, before));
 
     EXPECT_EQ(step(model, ws, s, {-0.1}), Status::InvalidStepSize);
@@ -132,9 +135,11 @@ TEST(Rattle, FailedStepsLeaveTheStateUnchanged) {
     wrong.lambda.resize(1);
     EXPECT_EQ(step(model, ws, wrong, {0.1}), Status::SizeMismatch);
     EXPECT_THAT(ws.message(), HasSubstr("lambda 1"));
+    EXPECT_THAT(ws.message(), HasSubstr("create the state for this model"));
 
     const Model other = fragile_model();
     EXPECT_EQ(step(other, ws, s, {0.1}), Status::WorkspaceMismatch);
+    EXPECT_THAT(ws.message(), HasSubstr("build one for this model"));
     EXPECT_TRUE(bitwise_equal(s, before));
 
     // The original step size still works afterwards.
@@ -150,7 +155,7 @@ TEST(Rattle, NonFiniteOneFormsAndStatesAreRefused) {
   s.q[0] = -5.0;
   const State before = s;
   EXPECT_EQ(step(model, ws, s, {0.1}), Status::NonFiniteOneForms);
-  EXPECT_THAT(ws.message(), HasSubstr("one-form row 0, column 2 (theta) has value nan"));
+  EXPECT_THAT(ws.message(), HasSubstr("one-form row 0, column 2 (theta) has value nan: check the model"));
   EXPECT_TRUE(bitwise_equal(s, before));
 
   ModelBuilder b;
@@ -162,6 +167,7 @@ TEST(Rattle, NonFiniteOneFormsAndStatesAreRefused) {
   for (int k = 0; k < 5; ++k) ASSERT_EQ(step(exploding, ws2, e, {0.1}), Status::Ok);
   const State kept = e;
   EXPECT_EQ(step(exploding, ws2, e, {0.1}), Status::NonFiniteState);
+  EXPECT_THAT(ws2.message(), HasSubstr("produced NaN or Inf: reduce the step size (h = 0.1)"));
   EXPECT_TRUE(bitwise_equal(e, kept));
 }
 

@@ -3,6 +3,8 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <exception>
 #include <memory>
 
@@ -44,12 +46,20 @@ std::vector<BatchOutcome> integrate_batch(const Model& model, std::vector<State>
     auto& ws = workspaces[static_cast<std::size_t>(thread)];
     if (!ws) ws = std::make_unique<Workspace>(model, batch.workspace);
     State& s = states[static_cast<std::size_t>(i)];
+    const long restarts = s.restarts;
     long k = 0;
     Status status = Status::Ok;
-    for (; k < steps && status == Status::Ok; ++k) status = step(model, *ws, s, options);
+    double parasitic = std::numeric_limits<double>::quiet_NaN();
+    for (; k < steps && status == Status::Ok; ++k) {
+      status = step(model, *ws, s, options);
+      if (status == Status::Ok && !std::isnan(ws->parasitic))
+        parasitic = std::isnan(parasitic) ? ws->parasitic : std::max(parasitic, ws->parasitic);
+    }
     BatchOutcome& o = out[static_cast<std::size_t>(i)];  // written once, at the end
     o.status = status;
     o.steps = status == Status::Ok ? k : k - 1;
+    o.restarts = s.restarts - restarts;
+    o.parasitic_max = parasitic;
     if (status != Status::Ok) o.message = ws->message();
   });
   for (std::size_t i = 0; i < out.size(); ++i)

@@ -40,6 +40,13 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h
   return d;
 }
 
+double external_power(const Model& model, Workspace& ws, const State& s) {
+  if (!model.has_external_force()) return 0.0;
+  model.external_force(s.t, s.q, ws.scratch_n);
+  model.inverse_mass().multiply(s.p.data(), ws.scratch_n2.data());
+  return ws.scratch_n.dot(ws.scratch_n2);
+}
+
 void evaluate_momentum_maps(const Model& model, const State& s, VecRef out) {
   const auto& maps = model.momentum_maps();
   for (std::size_t i = 0; i < maps.size(); ++i) out[static_cast<Eigen::Index>(i)] = maps[i].map(s.q, s.p);

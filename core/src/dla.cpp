@@ -26,7 +26,7 @@ DlaState dla_start(const State& start, double h) {
 Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions& o) {
   const int n = model.num_coordinates(), m = model.num_one_forms();
   if (&ws.model() != &model)
-    return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model");
+    return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
   if (!(o.h > 0.0) || !std::isfinite(o.h))
     return ws.fail(Status::InvalidStepSize, "step size h = %g must be positive and finite", o.h);
   if (s.q.size() != n || s.p.size() != n)
@@ -74,11 +74,12 @@ Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions
           worst = std::isnan(rel) ? rel : std::max(worst, rel);
         }
         if (!std::isfinite(worst))
-          return ws.fail(Status::NonFiniteState, "midpoint constraint residual is %g", worst);
+          return ws.fail(Status::NonFiniteState, "midpoint constraint residual is %g: reduce the step size", worst);
         if (worst <= o.newton_tolerance || (worst >= previous && worst <= 1e3 * o.newton_tolerance)) break;
         if (iterations == o.max_newton_iterations)
           return ws.fail(Status::NewtonNotConverged,
-                         "midpoint constraints: relative residual %.3g after %d iterations", worst, iterations);
+                         "midpoint constraints: relative residual %.3g after %d iterations: reduce the step size", worst,
+                         iterations);
         previous = worst;
         ws.rhs *= -1.0 / h;
         if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
@@ -90,7 +91,7 @@ Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions
   minv.multiply(ws.p_half.data(), ws.velocity.data());
   ws.q_next = s.q + h * ws.velocity;
   if (!std::isfinite(ws.q_next.sum() + ws.p_half.sum()))
-    return ws.fail(Status::NonFiniteState, "the step from t = %.17g produced NaN or Inf", s.t);
+    return ws.fail(Status::NonFiniteState, "the step from t = %.17g produced NaN or Inf: reduce the step size (h = %g)", s.t, h);
   s.q.swap(ws.q_next);
   s.p.swap(ws.p_half);
   s.t += h;

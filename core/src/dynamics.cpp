@@ -31,7 +31,7 @@ Status one_form_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecR
   for (int k = 0; k < nnz; ++k) mu_plus[k] = (mu_plus[k] - mu_minus[k]) / (2.0 * delta);
   model.mu_times(mu_plus.data(), qdot.data(), bias.data());
   if (!std::isfinite(bias.sum()))
-    return ws.fail(Status::NonFiniteOneForms, "the difference quotient of mu along qdot is not finite");
+    return ws.fail(Status::NonFiniteOneForms, "the difference quotient of mu along qdot is not finite: check the one-form values near q, or give the model its bias (one_form_bias)");
   return Status::Ok;
 }
 

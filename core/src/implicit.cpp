@@ -81,7 +81,7 @@ Status ImplicitWorkspace::reflect(ConstVecRef q, ConstVecRef p_plus, VecRef aver
   const Model& model = *model_;
   model.metric(q, metric);
   metric_llt.compute(metric);
-  if (metric_llt.info() != Eigen::Success) return fail(Status::NonFiniteState, "the metric is not positive definite");
+  if (metric_llt.info() != Eigen::Success) return fail(Status::NonFiniteState, "the metric is not positive definite here: check the model's metric, or reduce the step size");
   if (model.num_one_forms() == 0) {
     average = p_plus;
     reflected = p_plus;
@@ -96,7 +96,8 @@ Status ImplicitWorkspace::reflect(ConstVecRef q, ConstVecRef p_plus, VecRef aver
   for (int j = 0; j < c.rows(); ++j) {
     const double ratio = l(j, j) * l(j, j) / c(j, j);
     if (!(ratio > min_pivot_ratio) || c_llt.info() != Eigen::Success)
-      return fail(Status::NearlyDependentOneForms, "pivot of row %d of C is %.3g times its diagonal", j, ratio);
+      return fail(Status::NearlyDependentOneForms, "pivot of row %d of C is %.3g times its diagonal: nearly dependent one-forms; reduce the step size or lower min_pivot_ratio",
+                  j, ratio);
   }
   rhs.noalias() = metric_llt.solve(p_plus);  // M^-1 p+
   lambda.noalias() = mu * rhs;
@@ -161,7 +162,7 @@ ImplicitState implicit_start(const Model& model, ImplicitWorkspace& ws, double t
 
 Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& s, const ImplicitOptions& o) {
   const int n = model.num_coordinates();
-  if (&ws.model() != &model) return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model");
+  if (&ws.model() != &model) return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
   if (!(o.h > 0.0) || !std::isfinite(o.h))
     return ws.fail(Status::InvalidStepSize, "step size h = %g must be positive and finite", o.h);
   if (s.q.size() != n || s.p.size() != n)
@@ -186,10 +187,10 @@ Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& s
     const double scale = ws.residual.lpNorm<Eigen::Infinity>() + ws.rhs.lpNorm<Eigen::Infinity>();
     ws.residual -= ws.terms / (4.0 * h) + ws.rhs;
     const double worst = ws.residual.lpNorm<Eigen::Infinity>() / (scale > 0.0 ? scale : 1.0);
-    if (!std::isfinite(worst)) return ws.fail(Status::NonFiniteState, "Newton residual is %g", worst);
+    if (!std::isfinite(worst)) return ws.fail(Status::NonFiniteState, "Newton residual is %g: reduce the step size", worst);
     if (worst <= o.newton_tolerance || (worst >= previous && worst <= 1e3 * o.newton_tolerance)) break;
     if (it == o.max_newton_iterations)
-      return ws.fail(Status::NewtonNotConverged, "implicit step: relative residual %.3g after %d Newton iterations",
+      return ws.fail(Status::NewtonNotConverged, "implicit step: relative residual %.3g after %d Newton iterations: reduce the step size",
                      worst, it);
     previous = worst;
     // J = (1/h)[M + (1/2) sum_l dM/dq_j(:, l) delta_l (column j) - (1/2) (dM/dq_i delta)^T (row i)],
@@ -214,7 +215,7 @@ Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& s
   applied(model, s.t + h, ws.q_next, ws);
   ws.p_next += (0.5 * h) * ws.force;
   if (!std::isfinite(ws.q_next.sum() + ws.p_next.sum()))
-    return ws.fail(Status::NonFiniteState, "the step from t = %.17g produced NaN or Inf", s.t);
+    return ws.fail(Status::NonFiniteState, "the step from t = %.17g produced NaN or Inf: reduce the step size (h = %g)", s.t, o.h);
   s.q.swap(ws.q_next);
   s.p.swap(ws.p_next);
   s.t += h;

@@ -18,6 +18,7 @@ const char* to_string(Status status) {
     case Status::NewtonNotConverged: return "newton-not-converged";
     case Status::MethodNotApplicable: return "method-not-applicable";
     case Status::InvalidInput: return "invalid-input";
+    case Status::RestartFailed: return "restart-failed";
   }
   return "unknown";
 }

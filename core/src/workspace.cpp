@@ -17,6 +17,17 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   lambda.setZero(m);
   scratch_m.setZero(m);
   gap.setZero(model.num_holonomic());
+  if (m > 0) lambda_s.setZero(m);
+  if (model.num_holonomic() > 0) gap_multiplier.setZero(m);
+  if (m > 0 && model.has_applied_force()) lambda_f.setZero(m);
+  const int maps = static_cast<int>(model.momentum_maps().size());
+  if (m > 0 && maps > 0) {
+    map_directions.setZero(n, maps);
+    for (Vector* v : {&map_probe, &map_rest, &map_linear}) v->setZero(n);
+    map_lambda0.setZero(m);
+    map_lambda1.setZero(m);
+    map_values.setZero(maps);
+  }
   if (m > 0) factor_ = sparse::make_factorization(options.backend, model.gram().pattern());
   // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
   if (factor_ && !factor_->values_in_place()) c_values.setZero(model.gram().pattern().nnz());
@@ -49,10 +60,12 @@ Status Workspace::report_non_finite_one_forms() {
   for (int r = 0; r < pattern.rows; ++r)
     for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
       if (!std::isfinite(mu_values[k]))
-        return fail(Status::NonFiniteOneForms, "one-form row %d, column %d (%s) has value %g", r,
-                    pattern.col_idx[k], model_->coordinate_names()[pattern.col_idx[k]].c_str(),
-                    mu_values[k]);
-  return fail(Status::NonFiniteOneForms, "%s", factor_->message());
+        return fail(Status::NonFiniteOneForms,
+                    "one-form row %d, column %d (%s) has value %g: check the model's one-form "
+                    "values at this q, or reduce the step size if the state blew up",
+                    r, pattern.col_idx[k], model_->coordinate_names()[pattern.col_idx[k]].c_str(), mu_values[k]);
+  return fail(Status::NonFiniteOneForms, "%s: the state or the one-forms are not finite: reduce the step size",
+              factor_->message());
 }
 
 Status Workspace::factorize(double min_pivot_ratio) {
@@ -70,13 +83,20 @@ Status Workspace::factorize(double min_pivot_ratio) {
   switch (s) {
     case FactorStatus::Ok: factor_valid_ = true; return Status::Ok;
     case FactorStatus::NotPositiveDefinite:
-      return fail(Status::DependentOneForms, "%s", factor_->message());
+      return fail(Status::DependentOneForms,
+                  "%s: remove a redundant constraint, or change the step size if the motion only "
+                  "passes through this configuration",
+                  factor_->message());
     case FactorStatus::NearlySingular:
-      return fail(Status::NearlyDependentOneForms, "%s", factor_->message());
+      return fail(Status::NearlyDependentOneForms,
+                  "%s: reduce the step size to pass this near-singular configuration (a jackknifing "
+                  "train), or lower min_pivot_ratio if it is meant",
+                  factor_->message());
     case FactorStatus::NonFinite:
       return report_non_finite_one_forms();
     default:
-      return fail(Status::LinearSolverFailure, "%s (%s)", factor_->message(), sparse::to_string(s));
+      return fail(Status::LinearSolverFailure, "%s (%s): free memory or use a smaller model", factor_->message(),
+                  sparse::to_string(s));
   }
 }
 

@@ -169,7 +169,9 @@ Status Integrator::advance_to(double t) {
     const Status s = a.failure != Status::Ok ? a.failure : Status::OdeSolverFailure;
     return fail(s, std::string("ARKODE stopped at t = ") + std::to_string(reached) + ": " +
                        ARKStepGetReturnFlagName(flag) +
-                       (a.failure != Status::Ok ? std::string(": ") + ode_.workspace().message() : ""));
+                       (a.failure != Status::Ok ? std::string(": ") + ode_.workspace().message()
+                                                : std::string(": loosen --tol, or the equations are singular "
+                                                              "or stiff here (try the reflection method)")));
   }
   return Status::Ok;
 }

@@ -41,8 +41,13 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                 "rk4 and arkode-*: project onto the constraints (and hitches) after every step");
   cmd->add_option("--tol", o.config.tol, "arkode-*: relative and absolute tolerance (default 1e-8)");
   cmd->add_option("--restart", o.config.restart,
-                  "reset the multipliers to the continuous ones every K steps (0: never; "
-                  "default: the scene's)");
+                  "the period-2 mode: auto (default: energy-exact restarts of the multipliers when the "
+                  "measured parasitic amplitude exceeds --restart-tol), K (every K steps) or 0 (never: "
+                  "the paper's plain method)");
+  cmd->add_option("--restart-tol", o.config.restart_tol,
+                  "--restart auto: restart when the parasitic amplitude exceeds this (default dt^3)");
+  cmd->add_option("--monitor-every", o.config.monitor_every,
+                  "measure the parasitic amplitude every K steps (default 8; 0: never, not with auto)");
 }
 
 // Checks that need to know which options were given; fills the enums.
@@ -51,13 +56,26 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   if (cmd->count("--dt") && !(run.dt > 0.0))
     throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
   if (run.method != "reflection") {
-    for (const char* option : {"--hitch", "--restart"})
+    for (const char* option : {"--hitch", "--restart", "--restart-tol", "--monitor-every"})
       if (cmd->count(option)) throw std::invalid_argument(std::string(option) + " applies to the reflection method only");
   } else if (cmd->count("--tol")) {
     throw std::invalid_argument("--tol applies to the methods arkode-dp5 and arkode-verner");
   }
-  if (cmd->count("--restart") && run.restart < 0)
-    throw std::invalid_argument("--restart " + std::to_string(run.restart) + ": must be 0 (never) or positive");
+  if (cmd->count("--restart-tol") && !(run.restart_tol > 0.0))
+    throw std::invalid_argument("--restart-tol " + std::to_string(run.restart_tol) + ": must be positive");
+  if (cmd->count("--restart-tol") && run.restart != "auto")
+    throw std::invalid_argument("--restart-tol applies to --restart auto");
+  if (cmd->count("--monitor-every") && run.monitor_every < 0)
+    throw std::invalid_argument("--monitor-every " + std::to_string(run.monitor_every) +
+                                ": must be 0 (never) or positive");
+  if (run.restart == "auto" && run.monitor_every == 0)
+    throw std::invalid_argument("--monitor-every 0 turns off the measurement that --restart auto needs");
+  try {
+    RattleOptions check;
+    set_restart(check, run.restart);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("--") + e.what());
+  }
   if (cmd->count("--t-end") && !(run.t_end >= 0.0))
     throw std::invalid_argument("--t-end " + std::to_string(run.t_end) + ": must be non-negative");
   run.backend = sparse::backend_from_string(o.backend);
@@ -67,9 +85,7 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
 void list_scenes(std::ostream& out) {
   for (const auto& info : scene_catalogue()) {
     out << info.name << ": " << info.description << " (dt " << info.default_dt << ", t_end "
-        << info.default_t_end;
-    if (info.default_restart > 0) out << ", restart " << info.default_restart;
-    out << ")\n";
+        << info.default_t_end << ")\n";
     for (const auto& p : info.parameters) out << "  " << p.name << " = " << p.default_value << "  " << p.description << "\n";
   }
 }
@@ -137,6 +153,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       batch.run = batch_run.config;
       const BatchResult result = run_batch(batch);
       out << result.line() << std::endl;
+      if (!result.aggregate.warning.empty()) err << "nonholo batch: warning: " << result.aggregate.warning << std::endl;
       if (result.failed > 0) {
         err << "nonholo batch: " << result.failed << " of " << result.trajectories
             << " trajectories failed; first: " << result.first_failure << std::endl;
@@ -147,6 +164,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     finish_run_options(run_cmd, run);
     const RunSummary summary = run_scene(run.config);
     out << summary.line() << std::endl;
+    if (!summary.warning.empty()) err << "nonholo run: warning: " << summary.warning << std::endl;
     if (summary.status != Status::Ok) {
       err << "nonholo run: " << summary.message << std::endl;
       return 2;

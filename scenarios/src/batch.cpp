@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -113,7 +114,17 @@ BatchResult run_batch(const BatchConfig& config) {
       agg.restart = s.restart;
       agg.bodies = s.bodies;
       agg.backend = s.backend;
+      agg.restarts = s.restarts >= 0 ? 0 : -1;
+      agg.parasitic_max = std::numeric_limits<double>::quiet_NaN();
+      agg.has_work = s.has_work;
+      agg.work = std::numeric_limits<double>::quiet_NaN();  // a sum over trajectories means nothing
     }
+    if (s.restarts > 0) agg.restarts += s.restarts;
+    if (!std::isnan(s.parasitic_max) && !(s.parasitic_max <= agg.parasitic_max)) {
+      agg.parasitic_max = s.parasitic_max;
+      if (!s.warning.empty()) agg.warning = "trajectory " + std::to_string(i) + ": " + s.warning;
+    }
+    agg.energy_balance_err_max = std::max(agg.energy_balance_err_max, s.energy_balance_err_max);
     if (s.status != Status::Ok) {
       if (result.failed++ == 0) result.first_failure = "trajectory " + std::to_string(i) + ": " + s.message;
       agg.status = s.status;
@@ -145,7 +156,9 @@ BatchResult run_batch(const BatchConfig& config) {
     for (const auto& v : variations) out << "," << v.name;
     out << ",t_final";
     for (std::size_t c = 0; c < shown; ++c) out << "," << names[c];
-    out << ",energy_rel_err_max,energy_post_rel_err_max,residual_max,gap_max,status\n";
+    out << ",energy_rel_err_max,energy_post_rel_err_max,residual_max,gap_max,restarts,parasitic_max";
+    if (agg.has_work) out << ",work,energy_balance_err_max";
+    out << ",status\n";
     for (std::size_t i = 0; i < rows.size(); ++i) {
       const Row& r = rows[i];
       const RunSummary& s = r.summary;
@@ -154,7 +167,10 @@ BatchResult run_batch(const BatchConfig& config) {
       out << "," << number(s.t_final);
       for (std::size_t c = 0; c < shown; ++c) out << "," << (r.final_q.size() > 0 ? number(r.final_q[static_cast<Eigen::Index>(c)]) : "nan");
       out << "," << number(s.energy_rel_err_max) << "," << number(s.energy_post_rel_err_max) << ","
-          << number(s.residual_max) << "," << number(s.gap_max) << "," << to_string(s.status) << "\n";
+          << number(s.residual_max) << "," << number(s.gap_max) << "," << s.restarts << ","
+          << number(s.parasitic_max);
+      if (agg.has_work) out << "," << number(s.has_work ? s.work : NAN) << "," << number(s.energy_balance_err_max);
+      out << "," << to_string(s.status) << "\n";
     }
     out.close();
     if (!out) throw std::runtime_error("error writing '" + config.out + "'");

@@ -13,7 +13,9 @@
 #include <chrono>
 #include <cerrno>
 #include <charconv>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -84,6 +86,33 @@ class CsvWriter {
   std::vector<char> buffer_;
 };
 
+// The energy error net of the work done by external forces, relative to the largest of the
+// initial energy, the current one and the work (the scales round-off is relative to).
+double balance_error(double energy, double initial, double work) {
+  const double scale = std::max({std::abs(initial), std::abs(energy), std::abs(work)});
+  const double diff = std::abs(energy - initial - work);
+  return scale > 0.0 ? diff / scale : diff;
+}
+
+// A parasitic amplitude above this is worth a warning: the mode then holds its square, a
+// visible share of the kinetic energy, and the trajectory is no longer the method's
+// second-order approximation.
+constexpr double kParasiticWarning = 1e-3;
+
+std::string parasitic_warning(const RunSummary& r, const RattleOptions& o) {
+  std::ostringstream os;
+  os.precision(3);
+  os << "the period-2 mode reached " << r.parasitic_max << " of the momentum (parasitic_max): the velocities and "
+     << "the trajectory are off by about that much. ";
+  if (o.restart != RestartMode::Auto)
+    os << "Use --restart auto (energy-exact restarts when needed).";
+  else
+    os << "The mode grows faster than the restarts catch it (" << r.restarts << " restarts in " << r.steps
+       << " steps, tolerance " << o.parasitic_tolerance()
+       << "): the step is too large for the motion: reduce --dt, or measure every step (--monitor-every 1).";
+  return os.str();
+}
+
 bool reference_method(const std::string& name) {
   return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner";
 }
@@ -93,13 +122,19 @@ bool reference_method(const std::string& name) {
 std::string RunSummary::line() const {
   std::ostringstream os;
   os.precision(6);
-  os << "scene=" << scene << " method=" << method << " hitch=" << hitch << " restart=" << restart
-     << " bodies=" << bodies
-     << " steps=" << steps << " dt=" << dt << " t_end=" << t_final << " wall_s=" << wall_s
+  os << "scene=" << scene << " method=" << method << " hitch=" << hitch;
+  if (!restart.empty()) os << " restart=" << restart;
+  os << " bodies=" << bodies << " steps=" << steps << " dt=" << dt << " t_end=" << t_final << " wall_s=" << wall_s
      << " ns_per_step=" << ns_per_step << " ns_per_body_step=" << ns_per_body_step
-     << " energy_rel_err_max=" << energy_rel_err_max
-     << " energy_post_rel_err_max=" << energy_post_rel_err_max << " residual_max=" << residual_max
-     << " gap_max=" << gap_max;
+     << " energy_rel_err_max=" << energy_rel_err_max;
+  if (has_work) {
+    os << " energy_balance_err_max=" << energy_balance_err_max;
+    if (!std::isnan(work)) os << " work=" << work;
+  } else {
+    os << " energy_post_rel_err_max=" << energy_post_rel_err_max;
+  }
+  os << " residual_max=" << residual_max << " gap_max=" << gap_max;
+  if (restarts >= 0) os << " restarts=" << restarts << " parasitic_max=" << parasitic_max;
   if (has_momentum) os << " momentum_drift_max=" << momentum_drift_max;
   if (rhs_evaluations >= 0) os << " rhs_evals=" << rhs_evaluations;
   os << " backend=" << backend << " status=" << to_string(status);
@@ -118,7 +153,9 @@ PreparedRun prepare_run(const RunConfig& config) {
   r.choice.backend = config.backend;
   r.choice.rattle.h = r.dt;
   r.choice.rattle.hitch = config.hitch;
-  r.choice.rattle.restart_every = config.restart >= 0 ? config.restart : info.default_restart;
+  set_restart(r.choice.rattle, config.restart);
+  r.choice.rattle.restart_tolerance = config.restart_tol;
+  r.choice.rattle.monitor_every = config.monitor_every;
   validate(r.choice.rattle);
   r.choice.reference.h = r.dt;
   r.choice.reference.tol = config.tol;
@@ -161,7 +198,16 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.hitch = reflection ? to_string(config.hitch)
                              : !reference_method(config.method) ? "oneform"
                              : config.project ? "projected" : "velocity";
-  summary.restart = reflection ? choice.rattle.restart_every : 0;
+  summary.restart = reflection ? restart_spec(choice.rattle) : "";
+  summary.restarts = runner->restarts();
+  summary.parasitic_max = std::numeric_limits<double>::quiet_NaN();  // until measured
+  // With external forces the energy is not an invariant: the reflection method's discrete
+  // work-energy identity (DESIGN.md section 8) gives the balance instead. The other methods
+  // have no such identity; their energy error is then not reported.
+  const bool forced = model.has_external_force();
+  summary.has_work = forced && reflection;
+  const double power0 = summary.has_work ? runner->power() : 0.0;
+  double power = power0;
   summary.bodies = model.num_bodies();
   summary.dt = dt;
   summary.has_momentum = !model.momentum_maps().empty();
@@ -189,9 +235,26 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     }
     summary.steps = k;
     const Diagnostics d = runner->diagnostics();
-    summary.energy_rel_err_max = worst(summary.energy_rel_err_max, relative_change(d.energy, d0.energy));
-    summary.energy_post_rel_err_max =
-        worst(summary.energy_post_rel_err_max, relative_change(d.energy_post, d0.energy_post));
+    if (summary.has_work) {
+      // The identity: E_post(k-1/2) - E_post(-1/2) = sum_{j<k} h F_j^T M^-1 p~_j, exactly. The
+      // energy of p~_k sits half a step of work later: E(p~) = E_post(k-1/2) + (h/2) F_k^T M^-1
+      // p~_k + O(h^2), so it is compared with the work to t_k, W + (h/2)(P_k - P_0).
+      summary.work += dt * power;
+      power = runner->power();
+      const double w = summary.work;
+      summary.energy_rel_err_max =
+          worst(summary.energy_rel_err_max, balance_error(d.energy, d0.energy, w + 0.5 * dt * (power - power0)));
+      summary.energy_balance_err_max =
+          worst(summary.energy_balance_err_max, balance_error(d.energy_post, d0.energy_post, w));
+    } else {
+      summary.energy_rel_err_max = worst(summary.energy_rel_err_max, relative_change(d.energy, d0.energy));
+      summary.energy_post_rel_err_max =
+          worst(summary.energy_post_rel_err_max, relative_change(d.energy_post, d0.energy_post));
+    }
+    if (summary.restarts >= 0) {
+      const double a = runner->parasitic();
+      if (!std::isnan(a)) summary.parasitic_max = std::isnan(summary.parasitic_max) ? a : std::max(summary.parasitic_max, a);
+    }
     summary.residual_max = worst(summary.residual_max, d.residual);
     summary.gap_max = worst(summary.gap_max, d.gap);
     if (summary.has_momentum) {
@@ -209,6 +272,13 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   if (csv) csv->close();
   summary.t_final = runner->t();
   summary.rhs_evaluations = runner->rhs_evaluations();
+  if (summary.restarts >= 0) summary.restarts = runner->restarts();
+  if (forced && !reflection) {
+    summary.energy_rel_err_max = std::numeric_limits<double>::quiet_NaN();
+    summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();
+  }
+  if (summary.status == Status::Ok && summary.parasitic_max > kParasiticWarning)
+    summary.warning = parasitic_warning(summary, choice.rattle);
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   if (final_q) *final_q = runner->q();

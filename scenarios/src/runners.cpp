@@ -22,6 +22,9 @@ class ReflectionRunner final : public Runner {
   void momentum_maps(VecRef out) override { evaluate_momentum_maps(model_, state_, out); }
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return ws_.backend_name(); }
+  double parasitic() const override { return ws_.parasitic; }
+  long restarts() const override { return state_.restarts; }
+  double power() override { return external_power(model_, ws_, state_); }
 
  private:
   const Model& model_;

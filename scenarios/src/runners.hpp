@@ -6,6 +6,7 @@
 #include <nonholo/reference/integrators.hpp>
 #include <nonholo/scenarios/scene.hpp>
 
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -25,6 +26,12 @@ class Runner {
   virtual std::string message() const = 0;
   virtual std::string backend() const = 0;
   virtual long rhs_evaluations() const { return -1; }  // -1: not counted
+  // Reflection only: the parasitic amplitude measured by the last step (NaN if not measured)
+  // and the restarts so far (-1 for the other methods).
+  virtual double parasitic() const { return std::numeric_limits<double>::quiet_NaN(); }
+  virtual long restarts() const { return -1; }
+  // Reflection only: F(t, q)^T M^-1 p~ of the current state (external_power, diagnostics.hpp).
+  virtual double power() { return std::numeric_limits<double>::quiet_NaN(); }
 };
 
 struct MethodChoice {

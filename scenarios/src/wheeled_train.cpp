@@ -38,7 +38,6 @@ SceneInfo wheeled_train_scene() {
   };
   info.default_dt = 0.01;
   info.default_t_end = 20.0;
-  info.default_restart = 10;  // the pulled trailers are strongly attracting: see README
   info.build = [](const Parameters& p) {
     const long n = p.whole("bodies", 1, kMaxChainBodies);
     const double spread = p.within("spread", 0.0, 0.9);

@@ -24,6 +24,8 @@ struct BatchOutcome {
   Status status = Status::Ok;
   std::string message;  // why it failed, or the exception's text
   long steps = 0;       // steps completed
+  long restarts = 0;    // multiplier restarts in those steps (RattleOptions::restart)
+  double parasitic_max = 0.0;  // largest parasitic amplitude measured (NaN if never measured)
 };
 
 // The number of threads `requested` means here (0: all cores); at least 1.

@@ -24,6 +24,11 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& state, doub
 // (1/2) p^T M^-1 p. scratch: n entries.
 double kinetic_energy(const Model& model, ConstVecRef p, VecRef scratch);
 
+// The power of the external forces F(t_k, q_k)^T M^-1 p~_k (0 without them). Summed times h
+// over the steps it is the work of the discrete work-energy identity of DESIGN.md section 8:
+// E_post(k+1/2) - E_post(k-1/2) = h f_k^T M^-1 p~_k. Allocation-free.
+double external_power(const Model& model, Workspace& ws, const State& state);
+
 // out[i] = J_i(q_k, p~_k) for the model's momentum maps, in declaration order. For a
 // horizontal symmetry xi, <p~_k, xi_Q(q_k)> is the paper's discrete nonholonomic momentum.
 void evaluate_momentum_maps(const Model& model, const State& state, VecRef out);

@@ -46,6 +46,8 @@ class Model {
   bool has_potential() const { return static_cast<bool>(potential_); }
   double potential(ConstVecRef q) const { return potential_ ? potential_(q) : 0.0; }
   bool has_external_force() const { return static_cast<bool>(force_); }
+  // F(t, q) alone (only when has_external_force()).
+  void external_force(double t, ConstVecRef q, VecRef force) const { force_(t, q, force); }
   // Whether f = -grad V + F can be nonzero; when false the integrators skip it entirely.
   bool has_applied_force() const { return has_potential() || has_external_force(); }
   // f = -grad V(q) + F(t, q). scratch: n entries, clobbered.

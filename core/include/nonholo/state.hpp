@@ -15,7 +15,16 @@ struct State {
   Vector p;       // average momentum p~_k, with mu(q_k) M^-1 p~_k = 0
   Vector lambda;  // multipliers lambda~_k (sign convention M qdd = f + mu^T lambda)
   Vector force;   // f(t_k, q_k) + mu(q_k)^T lambda~_k
-  long steps = 0; // steps taken since the start (schedules RattleOptions::restart_every)
+  long steps = 0;     // steps taken since the start (schedules restarts and measurements)
+  long restarts = 0;  // multiplier restarts since the start (RattleOptions::restart)
+  // When the step measures the period-2 mode's amplitude next (a step count), and the last
+  // amplitude measured with its step count (0 after a restart): the step predicts the mode's
+  // growth from them (RattleOptions::monitor_every).
+  struct ModeWatch {
+    long next_step = 1;
+    long last_step = 0;
+    double last_amplitude = 0.0;
+  } watch;
 
   // The post-momentum leaving t_k, p_{k+1/2} = p~_k + (h/2) force, and the one arriving,
   // p_{k-1/2} = p~_k - (h/2) force (both exact identities of the scheme).

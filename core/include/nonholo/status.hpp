@@ -18,6 +18,7 @@ enum class Status {
   NewtonNotConverged,   // an implicit step's Newton iteration did not converge
   MethodNotApplicable,  // e.g. an explicit method on a model with a configuration metric
   InvalidInput,         // a batch trajectory whose set-up was refused (message says why)
+  RestartFailed,        // a multiplier restart could not keep the energy (restart.hpp)
 };
 
 const char* to_string(Status status);

@@ -15,7 +15,9 @@ struct WorkspaceOptions {
   sparse::Backend backend = sparse::Backend::Auto;
 };
 
-class Workspace {
+// Cache-line aligned (and so padded): the workspaces of a batch's threads are written at every
+// step and must not share a cache line (measured: sharing one halved the 2-thread speed-up).
+class alignas(128) Workspace {
  public:
   explicit Workspace(const Model& model, const WorkspaceOptions& options = {});
 
@@ -55,8 +57,24 @@ class Workspace {
   Vector mu_values, c_values, rhs, lambda, scratch_m, scratch_nnz, scratch_nnz2;
   // ... and of size num_holonomic() (hitch gaps g(q)).
   Vector gap;
-  // Position-level iterations taken by the last step in holonomic mode.
+  // Position-level iterations taken by the last step in holonomic mode, and the sum of their
+  // multiplier corrections dlambda (m; zero when the step made none). In holonomic mode
+  // lambda~ settles at lambda_s - dlambda/2 rather than lambda_s (restart.cpp).
   int gap_iterations = 0;
+  Vector gap_multiplier;
+
+  // The period-2 mode (restart.hpp). lambda_s: the continuous multiplier lambda_s(q, p~) last
+  // computed (m); lambda_f: its part due to the applied force, -C^-1 mu M^-1 f (m, only for
+  // models with an applied force). With momentum maps, the restart also keeps their directions
+  // (map_directions, n x maps) and the split of p~ (map_probe, map_rest, map_linear: n;
+  // map_lambda0, map_lambda1: m).
+  Vector lambda_s, lambda_f;
+  Eigen::MatrixXd map_directions;
+  Vector map_probe, map_rest, map_linear, map_lambda0, map_lambda1, map_values;
+  // What the last successful step found: the parasitic amplitude at its end (NaN when it was
+  // not measured) and whether it restarted the multipliers.
+  double parasitic = 0.0;
+  bool restarted = false;
 
  private:
   const Model* model_;

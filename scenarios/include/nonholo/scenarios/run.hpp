@@ -20,7 +20,9 @@ struct RunConfig {
   long every = 1;                        // write every K-th step (and the last)
   sparse::Backend backend = sparse::Backend::Auto;
   HitchMode hitch = HitchMode::Holonomic;
-  int restart = -1;  // RattleOptions::restart_every; < 0: the scene's default
+  std::string restart = "auto";  // see set_restart (rattle.hpp): auto, 0 or K
+  double restart_tol = 0.0;      // RattleOptions::restart_tolerance (0: h^3)
+  int monitor_every = 8;         // RattleOptions::monitor_every
   std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner
   bool project = false;  // reference methods: project onto the constraints after each step
   double tol = 1e-8;     // ARKODE methods: relative and absolute tolerance
@@ -31,7 +33,7 @@ struct RunSummary {
   std::string method;
   std::string backend;
   std::string hitch;
-  int restart = 0;
+  std::string restart;  // the restart policy in use (reflection), "" for the other methods
   int bodies = 0;
   Status status = Status::Ok;
   std::string message;  // why the run stopped early
@@ -45,6 +47,16 @@ struct RunSummary {
   double energy_post_rel_err_max = 0.0;
   double residual_max = 0.0;
   double gap_max = 0.0;  // max over the steps of max_j |g_j(q_k)| (hitches; 0 without)
+  // Reflection: multiplier restarts, and the largest parasitic amplitude measured (NaN if none).
+  long restarts = -1;  // -1: not applicable (other methods)
+  double parasitic_max = 0.0;
+  // Models with external forces (reflection): the work they did, sum_k h F_k^T M^-1 p~_k (NaN
+  // when not applicable or, in a batch, not summed), and the balance error of the
+  // post-momentum energy against it. energy_rel_err_max is then also net of that work.
+  bool has_work = false;
+  double work = 0.0;
+  double energy_balance_err_max = 0.0;
+  std::string warning;  // what the user should know about a run that ended ok
   long rhs_evaluations = -1;  // reference methods: evaluations of the equations
   bool has_momentum = false;
   double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|

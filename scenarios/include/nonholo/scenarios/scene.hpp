@@ -23,8 +23,6 @@ struct SceneInfo {
   std::vector<ParameterSpec> parameters;
   double default_dt;
   double default_t_end;
-  // RattleOptions::restart_every unless the user overrides it (0: the paper's method).
-  int default_restart = 0;
   std::function<SceneSetup(const Parameters&)> build;
 
   Parameters defaults() const { return Parameters(name, parameters); }

@@ -13,7 +13,7 @@ class Message {
   const char* c_str() const { return text_; }
 
  private:
-  char text_[320] = "";
+  char text_[512] = "";
 };
 
 }  // namespace nonholo::sparse

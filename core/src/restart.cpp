@@ -1,0 +1,331 @@
+// Energy-exact restarts of the multipliers (DESIGN.md section 8). The arriving post-momentum
+// of a state is p_- = p~ - (h/2)(f + mu^T lambda~). A restart replaces lambda~ by the
+// continuous multiplier of a rescaled momentum p~' = p~_J + s p~_r (p~_J: what the momentum
+// maps see, kept; p~_r: the rest, scaled). Since the bias is quadratic in the velocity,
+// lambda_s(q, p~_J + s p~_r) = lambda_F + lambda_0 + s lambda_1 + s^2 lambda_2, and p_-(s) =
+// a + s b + s^2 c with fixed vectors a, b, c: its energy is a quartic in s, and with a
+// potential the averaged V of DESIGN.md is added. One scalar equation keeps the energy.
+#include <nonholo/restart.hpp>
+
+#include <nonholo/diagnostics.hpp>
+#include <nonholo/dynamics.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "restart_internal.hpp"
+
+namespace nonholo {
+namespace detail {
+namespace {
+
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+// x^T M^-1 y for the model's block-diagonal M. scratch: n entries.
+double inverse_mass_dot(const Model& model, ConstVecRef x, ConstVecRef y, VecRef scratch) {
+  model.inverse_mass().multiply(x.data(), scratch.data());
+  return y.dot(scratch);
+}
+
+// lambda = -C^-1 rhs_in (rhs_in is negated in place).
+Status solve_negated(Workspace& ws, Vector& rhs, double* lambda) {
+  rhs = -rhs;
+  return ws.solve(rhs.data(), lambda);
+}
+
+// Root of the increasing-near-1 function g with g(1) = g1 (so the scale s closest to 1 that
+// keeps the energy): a bracket grown from 1 by the Newton estimate, then Illinois regula
+// falsi. Returns false when no bracket exists (no positive scale keeps the energy).
+template <class G>
+bool find_scale(G&& g, double g1, double slope, double floor, double& s_out) {
+  s_out = 1.0;
+  if (std::abs(g1) <= floor) return true;
+  double d = (slope > 0.0 && std::isfinite(slope)) ? std::abs(g1) / slope : 1e-8;
+  d = std::max(d, 16.0 * kEps);
+  double lo, hi, glo, ghi;
+  if (g1 > 0.0) {
+    hi = 1.0;
+    ghi = g1;
+    for (int i = 0;; ++i, d *= 4.0) {
+      lo = std::max(0.0, 1.0 - 2.0 * d);
+      glo = g(lo);
+      if (glo <= 0.0) break;
+      if (lo == 0.0 || i == 60 || !std::isfinite(glo)) return false;
+      hi = lo;
+      ghi = glo;
+    }
+  } else {
+    lo = 1.0;
+    glo = g1;
+    for (int i = 0;; ++i, d *= 4.0) {
+      hi = 1.0 + 2.0 * d;
+      ghi = g(hi);
+      if (ghi >= 0.0) break;
+      if (i == 60 || !std::isfinite(ghi)) return false;
+      lo = hi;
+      glo = ghi;
+    }
+  }
+  double best = std::abs(glo) < std::abs(ghi) ? lo : hi, best_g = std::min(std::abs(glo), std::abs(ghi));
+  int side = 0;
+  for (int it = 0; it < 200 && best_g > floor && hi - lo > 4.0 * kEps * hi; ++it) {
+    double s = (lo * ghi - hi * glo) / (ghi - glo);
+    if (!(s > lo && s < hi)) s = 0.5 * (lo + hi);
+    const double gs = g(s);
+    if (std::abs(gs) < best_g) {
+      best = s;
+      best_g = std::abs(gs);
+    }
+    if (gs < 0.0) {
+      lo = s;
+      glo = gs;
+      if (side == -1) ghi *= 0.5;
+      side = -1;
+    } else {
+      hi = s;
+      ghi = gs;
+      if (side == 1) glo *= 0.5;
+      side = 1;
+    }
+  }
+  s_out = best;
+  return true;
+}
+
+// The momentum maps' directions xi_j = dJ_j/dp at q, projected M-orthogonally onto D(q) and
+// M-orthonormalised into ws.map_directions (a direction orthogonal to D, or dependent on the
+// others, becomes 0). For p with M^-1 p in D, J_j(q, p) = xi_j^T p = (P xi_j)^T p. Also
+// records J_j(q, p) and the scale sum_i |xi_ji p_i| in ws.map_values.
+Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p) {
+  const auto& maps = model.momentum_maps();
+  const int n = model.num_coordinates(), r = static_cast<int>(maps.size());
+  Eigen::MatrixXd& xi = ws.map_directions;
+  ws.map_probe.setZero();
+  for (int j = 0; j < r; ++j) {
+    const double offset = maps[j].map(q, ws.map_probe);
+    double scale = 0.0;
+    for (int i = 0; i < n; ++i) {
+      ws.map_probe[i] = 1.0;
+      xi(i, j) = maps[j].map(q, ws.map_probe) - offset;
+      ws.map_probe[i] = 0.0;
+      scale += std::abs(xi(i, j) * p[i]);
+    }
+    ws.map_values[j] = maps[j].map(q, p);
+    ws.map_values[r + j] = scale + std::abs(ws.map_values[j]);
+    if (!std::isfinite(scale) || !std::isfinite(ws.map_values[j]))
+      return ws.fail(Status::RestartFailed, "momentum map '%s' is not finite at this state", maps[j].name.c_str());
+  }
+  for (int j = 0; j < r; ++j) {
+    double* col = xi.col(j).data();
+    Status status = Status::Ok;
+    model.mu_times(ws.mu_values.data(), col, ws.rhs.data());
+    if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
+    model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
+    model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
+    model.mass().multiply(col, ws.scratch_n.data());
+    const double before = std::sqrt(std::max(0.0, xi.col(j).dot(ws.scratch_n)));
+    xi.col(j) -= ws.scratch_n2;
+    for (int i = 0; i < j; ++i) {  // modified Gram-Schmidt in the M inner product
+      model.mass().multiply(xi.col(i).data(), ws.scratch_n.data());
+      xi.col(j) -= ws.scratch_n.dot(xi.col(j)) * xi.col(i);
+    }
+    model.mass().multiply(col, ws.scratch_n.data());
+    const double norm = std::sqrt(std::max(0.0, xi.col(j).dot(ws.scratch_n)));
+    if (norm > 1e-10 * before)
+      xi.col(j) /= norm;
+    else
+      xi.col(j).setZero();
+  }
+  return Status::Ok;
+}
+
+}  // namespace
+
+Status continuous_multiplier_at(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p,
+                                ConstVecRef applied) {
+  const auto& minv = model.inverse_mass();
+  minv.multiply(p.data(), ws.velocity.data());
+  Status status = one_form_bias(model, ws, q, ws.velocity, ws.rhs);
+  if (status != Status::Ok) return status;
+  if (model.has_applied_force()) {
+    minv.multiply(applied.data(), ws.scratch_n.data());
+    model.mu_times(ws.mu_values.data(), ws.scratch_n.data(), ws.scratch_m.data());
+    ws.rhs += ws.scratch_m;
+  }
+  if ((status = solve_negated(ws, ws.rhs, ws.lambda_s.data())) != Status::Ok) return status;
+  if (!std::isfinite(ws.lambda_s.sum()))
+    return ws.fail(Status::NonFiniteState,
+                   "the continuous multiplier is not finite (the bias or the force is NaN or Inf): "
+                   "check the model's bias and forces, or reduce the step size");
+  return Status::Ok;
+}
+
+double parasitic_of(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRef lambda, double h,
+                    bool gap_offset) {
+  ws.scratch_m = lambda - ws.lambda_s;
+  if (gap_offset) ws.scratch_m += 0.5 * ws.gap_multiplier;
+  model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
+  const double mode = inverse_mass_dot(model, ws.scratch_n, ws.scratch_n, ws.scratch_n2);
+  const double momentum = p.dot(ws.velocity);  // velocity = M^-1 p (continuous_multiplier_at)
+  if (!(momentum > 0.0)) return mode > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+  return 0.5 * h * std::sqrt(mode / momentum);
+}
+
+Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, VecRef lambda,
+                        VecRef force, ConstVecRef applied, double h, bool gap_offset) {
+  const auto& minv = model.inverse_mass();
+  const bool forced = model.has_applied_force(), potential = model.has_potential();
+  const bool maps = !model.momentum_maps().empty();
+  const double half = 0.5 * h;
+  Status status = Status::Ok;
+
+  // The energy to keep: that of the arriving post-momentum, with the potential averaged over
+  // q_k and q_{k-1} = q_k - h M^-1 p_- (what diagnose() reports).
+  const double v_now = potential ? model.potential(q) : 0.0;
+  ws.scratch_n = p - half * force;
+  minv.multiply(ws.scratch_n.data(), ws.scratch_n2.data());
+  double target = 0.5 * ws.scratch_n.dot(ws.scratch_n2);
+  if (potential) {
+    ws.scratch_n2 = q - h * ws.scratch_n2;
+    target += 0.5 * (model.potential(ws.scratch_n2) + v_now);
+  }
+
+  // lambda_s = lambda_F + lambda_B(p): split off the force's part, which does not scale.
+  if (forced) {
+    minv.multiply(applied.data(), ws.scratch_n.data());
+    model.mu_times(ws.mu_values.data(), ws.scratch_n.data(), ws.rhs.data());
+    if ((status = solve_negated(ws, ws.rhs, ws.lambda_f.data())) != Status::Ok) return status;
+    ws.lambda_s -= ws.lambda_f;
+  }
+  // Now lambda_s holds lambda_B(p~) = lambda_0 + lambda_1 + lambda_2 (the bias part).
+  Vector& a = ws.p_hat;
+  Vector& c = ws.p_half;
+  Vector& lambda_const = ws.scratch_m;  // lambda_F + lambda_0 (- dlambda/2)
+  if (maps) {
+    if ((status = momentum_directions(model, ws, q, p)) != Status::Ok) return status;
+    const Eigen::MatrixXd& xi = ws.map_directions;
+    // v_J = sum_j xi_j (xi_j^T M v) = sum_j xi_j (xi_j^T p~); p~_r = p~ - M v_J.
+    ws.scratch_n.setZero();
+    for (Eigen::Index j = 0; j < xi.cols(); ++j) ws.scratch_n += xi.col(j).dot(p) * xi.col(j);
+    model.mass().multiply(ws.scratch_n.data(), ws.map_rest.data());
+    ws.map_rest = p - ws.map_rest;
+    // Polarisation of the bias: B(v_J + s v_r) = B(v_J) + s B_1 + s^2 B_2 from s = 0, 1, -1.
+    if ((status = one_form_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
+    if ((status = solve_negated(ws, ws.rhs, ws.map_lambda0.data())) != Status::Ok) return status;
+    ws.scratch_n = 2.0 * ws.scratch_n - ws.velocity;  // v_J - v_r
+    if ((status = one_form_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
+    if ((status = solve_negated(ws, ws.rhs, ws.scratch_m.data())) != Status::Ok) return status;
+    ws.map_lambda1 = 0.5 * (ws.lambda_s - ws.scratch_m);
+    ws.lambda_s = 0.5 * (ws.lambda_s + ws.scratch_m) - ws.map_lambda0;  // lambda_2
+    lambda_const = ws.map_lambda0;
+  } else {
+    lambda_const.setZero();  // lambda_0 = lambda_1 = 0, lambda_2 = lambda_B
+  }
+  if (forced) lambda_const += ws.lambda_f;
+  if (gap_offset) lambda_const -= 0.5 * ws.gap_multiplier;
+
+  // p_-(s) = a + s b + s^2 c.
+  model.mu_transpose_times(ws.mu_values.data(), lambda_const.data(), a.data());
+  if (forced) a += applied;
+  a *= -half;
+  if (maps) a += p - ws.map_rest;
+  Vector* b_store = &ws.map_linear;
+  if (maps) {
+    model.mu_transpose_times(ws.mu_values.data(), ws.map_lambda1.data(), ws.map_linear.data());
+    ws.map_linear = ws.map_rest - half * ws.map_linear;
+  }
+  ConstVecRef b = maps ? ConstVecRef(*b_store) : ConstVecRef(p);
+  model.mu_transpose_times(ws.mu_values.data(), ws.lambda_s.data(), c.data());
+  c *= -half;
+
+  // K(s) = (1/2) |a + s b + s^2 c|^2_{M^-1} = sum k_i s^i.
+  minv.multiply(a.data(), ws.scratch_n.data());
+  const double aa = a.dot(ws.scratch_n), ab = b.dot(ws.scratch_n), ac = c.dot(ws.scratch_n);
+  minv.multiply(c.data(), ws.scratch_n.data());
+  const double bc = b.dot(ws.scratch_n), cc = c.dot(ws.scratch_n);
+  const double bb = inverse_mass_dot(model, b, b, ws.scratch_n);
+  const double k0 = 0.5 * aa, k1 = ab, k2 = 0.5 * bb + ac, k3 = bc, k4 = 0.5 * cc;
+  auto residual = [&](double s) {
+    double e = (((k4 * s + k3) * s + k2) * s + k1) * s + k0;
+    if (potential) {
+      ws.scratch_n = a + s * b + (s * s) * c;
+      minv.multiply(ws.scratch_n.data(), ws.scratch_n2.data());
+      ws.scratch_n2 = q - h * ws.scratch_n2;
+      e += 0.5 * (model.potential(ws.scratch_n2) + v_now);
+    }
+    return e - target;
+  };
+  const double g1 = residual(1.0);
+  const double floor = 8.0 * kEps * (std::abs(target) + std::abs(k0) + std::abs(k1) + std::abs(k2) + std::abs(k3) +
+                                     std::abs(k4) + std::abs(v_now));
+  double s = 1.0;
+  if (!std::isfinite(g1) || !find_scale(residual, g1, k1 + 2.0 * k2 + 3.0 * k3 + 4.0 * k4, floor, s))
+    return ws.fail(Status::RestartFailed,
+                   "no rescale of p~ keeps the post-momentum energy %.17g (|p~_r|^2_M^-1 = %.3g; "
+                   "energy change of the plain restart %.3g): restart less often or not at all "
+                   "(RattleOptions::restart, --restart)",
+                   target, bb, g1);
+
+  // The new momentum; with momentum maps, checked before anything is written.
+  if (maps) {
+    ws.map_linear = p + (s - 1.0) * ws.map_rest;
+    const auto& list = model.momentum_maps();
+    const int r = static_cast<int>(list.size());
+    for (int j = 0; j < r; ++j) {
+      const double after = list[j].map(q, ws.map_linear);
+      if (!(std::abs(after - ws.map_values[j]) <= 64.0 * kEps * ws.map_values[r + j]))
+        return ws.fail(Status::RestartFailed,
+                       "momentum map '%s' would change from %.17g to %.17g: a momentum map must be "
+                       "linear in p (J = <p, xi_Q(q)>); restart with RestartMode::Never or fix the map",
+                       list[j].name.c_str(), ws.map_values[j], after);
+    }
+    p = ws.map_linear;
+    lambda = lambda_const + s * ws.map_lambda1 + (s * s) * ws.lambda_s;
+  } else {
+    p *= s;
+    lambda = lambda_const + (s * s) * ws.lambda_s;
+  }
+  model.mu_transpose_times(ws.mu_values.data(), lambda.data(), force.data());
+  if (forced) force += applied;
+  return Status::Ok;
+}
+
+}  // namespace detail
+
+namespace {
+
+// For a state between steps: the workspace's checks, then C(q) factorised, f(t, q) in
+// ws.applied and lambda_s(q, p~) in ws.lambda_s (continuous_multiplier_at).
+Status multiplier_of_state(const Model& model, Workspace& ws, const State& s, double h, double min_pivot_ratio) {
+  if (&ws.model() != &model)
+    return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
+  if (!(h > 0.0) || !std::isfinite(h))
+    return ws.fail(Status::InvalidStepSize, "step size h = %g must be positive and finite", h);
+  if (model.num_one_forms() == 0) return Status::Ok;
+  const Status status = ws.factorize_at(s.q, min_pivot_ratio);
+  if (status != Status::Ok) return status;
+  if (model.has_applied_force()) model.applied_force(s.t, s.q, ws.applied, ws.scratch_n);
+  return detail::continuous_multiplier_at(model, ws, s.q, s.p, ws.applied);
+}
+
+}  // namespace
+
+Status parasitic_amplitude(const Model& model, Workspace& ws, const State& s, double h, double& amplitude,
+                           double min_pivot_ratio) {
+  amplitude = 0.0;
+  const Status status = multiplier_of_state(model, ws, s, h, min_pivot_ratio);
+  if (status == Status::Ok && model.num_one_forms() > 0)
+    amplitude = detail::parasitic_of(model, ws, s.p, s.lambda, h, false);
+  return status;
+}
+
+Status restart(const Model& model, Workspace& ws, State& s, const RattleOptions& options) {
+  Status status = multiplier_of_state(model, ws, s, options.h, options.min_pivot_ratio);
+  if (status != Status::Ok || model.num_one_forms() == 0) return status;
+  status = detail::rescaled_restart(model, ws, s.q, s.p, s.lambda, s.force, ws.applied, options.h, false);
+  if (status == Status::Ok) ++s.restarts;
+  return status;
+}
+
+}  // namespace nonholo
