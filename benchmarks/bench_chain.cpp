@@ -94,8 +94,8 @@ void restart_loop(benchmark::State& s, const char* restart, int monitor_every) {
   const long n = s.range(0);
   Chain& c = chain(n, true, Backend::Auto, HitchMode::OneForm);
   RattleOptions o = c.options;
-  set_restart(o, restart);
-  o.monitor_every = monitor_every;
+  set_restart(o.restart, restart);
+  o.restart.monitor_every = monitor_every;
   const long restarts = c.state.restarts;
   long measured = 0;
   for (auto _ : s) {

@@ -38,8 +38,8 @@ void run_steps(benchmark::State& bench, const std::string& scene, sparse::Backen
   Fixture f(scene, backend);
   RattleOptions options{0.01};
   if (std::string(restart) == "plain") {
-    options.restart = RestartMode::Never;
-    options.monitor_every = 0;
+    options.restart.mode = RestartMode::Never;
+    options.restart.monitor_every = 0;
   }
   for (auto _ : bench) {
     if (step(f.setup.model, f.ws, f.state, options) != Status::Ok) bench.SkipWithError(f.ws.message());

@@ -61,7 +61,7 @@ TEST(Batch, ResultsDoNotDependOnTheThreadCount) {
   }
   std::vector<State> one = serial, two = serial, three = serial;
   RattleOptions o{0.01};
-  o.restart_tolerance = 1e-8;  // automatic restarts (and their measurement schedule) in play
+  o.restart.tolerance = 1e-8;  // automatic restarts (and their measurement schedule) in play
   long restarts = 0;
   for (State& s : serial) {
     for (int k = 0; k < 300; ++k) ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok);

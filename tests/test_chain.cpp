@@ -163,7 +163,7 @@ RunStats simulate(const scenarios::SceneSetup& setup, HitchMode mode, long steps
   RattleOptions o;
   o.h = h;
   o.hitch = mode;
-  set_restart(o, restart);
+  set_restart(o.restart, restart);
   const Diagnostics d0 = diagnose(model, ws, s, h);
   RunStats r;
   for (long k = 0; k < steps; ++k) {
@@ -298,20 +298,20 @@ TEST(Chain, GapIterationFailureLeavesTheStateUnchanged) {
   bad.max_gap_iterations = 0;
   testing::expect_error([&] { validate(bad); }, "max_gap_iterations = 0 must be at least 1");
   bad = RattleOptions{};
-  bad.restart_every = -2;
-  testing::expect_error([&] { validate(bad); }, "restart_every = -2 must not be negative");
+  bad.restart.every = -2;
+  testing::expect_error([&] { validate(bad); }, "restart every = -2 must not be negative");
   bad = RattleOptions{};
-  bad.restart = RestartMode::Periodic;
-  testing::expect_error([&] { validate(bad); }, "restart_every = 0 must be at least 1 with RestartMode::Periodic");
+  bad.restart.mode = RestartMode::Periodic;
+  testing::expect_error([&] { validate(bad); }, "restart every = 0 must be at least 1 with RestartMode::Periodic");
   bad = RattleOptions{};
-  bad.monitor_every = 0;
+  bad.restart.monitor_every = 0;
   testing::expect_error([&] { validate(bad); }, "monitor_every = 0 must be at least 1 with RestartMode::Auto");
-  bad.restart = RestartMode::Never;
+  bad.restart.mode = RestartMode::Never;
   EXPECT_NO_THROW(validate(bad));
-  bad.restart_tolerance = -1.0;
-  testing::expect_error([&] { validate(bad); }, "restart_tolerance = -1 must be 0 (h^3) or positive and finite");
+  bad.restart.tolerance = -1.0;
+  testing::expect_error([&] { validate(bad); }, "restart tolerance = -1 must be 0 (h^3) or positive and finite");
   testing::expect_error([] {
-    RattleOptions parsed;
+    RestartOptions parsed;
     set_restart(parsed, "sometimes");
   }, "restart 'sometimes': expected auto, 0 (never) or a number of steps K from 1 to 1e9");
   testing::expect_error([] { hitch_mode_from_string("rigid"); },

@@ -58,7 +58,7 @@ double sleigh_error(double h, double t_end, InitialMultiplier multiplier, const 
   std::vector<Eigen::Vector3d> states, rates;
   RattleOptions options;
   options.h = h;
-  set_restart(options, restart);
+  set_restart(options.restart, restart);
   for (long k = 1; k <= steps; ++k) {
     EXPECT_EQ(step(setup.model, ws, s, options), Status::Ok);
     times.push_back(s.t);

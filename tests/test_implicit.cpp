@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <iostream>
 #include <vector>
 
@@ -79,8 +80,11 @@ TEST(Implicit, ContactSleighIsSecondOrderAndAgreesWithTheCentreSleigh) {
   EXPECT_NEAR(gap1 / gap2, 4.0, 0.4);
 }
 
-TEST(Implicit, WithAConstantMetricItIsTheExplicitMethod) {
-  // The centre-of-mass sleigh again, but declared with a (constant) configuration metric.
+void add_drive(ModelBuilder& b);
+
+// The centre-of-mass sleigh declared with a (constant) configuration metric, optionally
+// driven (a force along the heading and a torque) and with a potential.
+Model constant_metric_sleigh(bool driven) {
   ModelBuilder b;
   b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
   b.configuration_metric([](ConstVecRef, MatRef m) { m = Eigen::Vector3d(1.0, 1.0, 1.0).asDiagonal(); },
@@ -90,24 +94,99 @@ TEST(Implicit, WithAConstantMetricItIsTheExplicitMethod) {
   b.one_form_bias([](ConstVecRef q, ConstVecRef v, VecRef bias) {
     bias[0] = v[2] * (std::cos(q[2]) * v[0] + std::sin(q[2]) * v[1]);
   });
-  const Model implicit_model = b.build();
-  const auto explicit_setup = scene("sleigh");
-  ImplicitWorkspace iws(implicit_model);
-  ImplicitOptions o;
-  ImplicitState a = implicit_start(implicit_model, iws, 0.0, explicit_setup.q0, explicit_setup.v0, o);
-  Workspace ws(explicit_setup.model);
-  State s = start_from_velocity(explicit_setup.model, ws, 0.0, explicit_setup.q0, explicit_setup.v0);
-  for (int k = 0; k < 1000; ++k) {
-    ASSERT_EQ(implicit_step(implicit_model, iws, a, o), Status::Ok) << iws.message();
-    ASSERT_EQ(step(explicit_setup.model, ws, s, {o.h}), Status::Ok);
-  }
-  std::cout << "[implicit] constant metric, 1000 steps: |q - q_rattle| = " << (a.q - s.q).lpNorm<Eigen::Infinity>()
-            << ", Newton iterations in the last step " << a.newton_iterations << "\n";
-  EXPECT_LE((a.q - s.q).lpNorm<Eigen::Infinity>(), 1e-12);
+  if (driven) add_drive(b);
+  return b.build();
+}
+
+void add_drive(ModelBuilder& b) {
+  b.external_force([](double t, ConstVecRef q, VecRef f) {
+    f << 0.3 * std::cos(q[2]), 0.3 * std::sin(q[2]), 0.2 * std::sin(2.0 * t);
+  });
+  b.potential([](ConstVecRef q) { return 0.05 * q[2] * q[2]; },
+              [](ConstVecRef q, VecRef g) { g << 0.0, 0.0, 0.1 * q[2]; });
+}
+
+TEST(Implicit, WithAConstantMetricItIsTheExplicitMethod) {
+  // The same step, start and restarts: driven or not, with every restart policy, the two
+  // forms agree to round-off.
+  for (bool driven : {false, true})
+    for (const char* restart : {"0", "7", "auto"}) {
+      const Model implicit_model = constant_metric_sleigh(driven);
+      ModelBuilder e;
+      e.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
+      e.add_one_form({0, 1, 2});
+      e.one_form_values([](ConstVecRef q, VecRef mu) { mu << std::sin(q[2]), -std::cos(q[2]), 0.2; });
+      e.one_form_bias([](ConstVecRef q, ConstVecRef v, VecRef bias) {
+        bias[0] = v[2] * (std::cos(q[2]) * v[0] + std::sin(q[2]) * v[1]);
+      });
+      if (driven) add_drive(e);
+      const Model explicit_model = e.build();
+      const auto setup = scene("sleigh");
+      ImplicitWorkspace iws(implicit_model);
+      ImplicitOptions o;
+      set_restart(o.restart, restart);
+      o.restart.tolerance = 1e-9;  // auto: restarts within these 1000 steps
+      RattleOptions r{o.h};
+      r.restart = o.restart;
+      ImplicitState a = implicit_start(implicit_model, iws, 0.0, setup.q0, setup.v0, o);
+      Workspace ws(explicit_model);
+      State s = start_from_velocity(explicit_model, ws, 0.0, setup.q0, setup.v0);
+      for (int k = 0; k < 1000; ++k) {
+        ASSERT_EQ(implicit_step(implicit_model, iws, a, o), Status::Ok) << iws.message();
+        ASSERT_EQ(step(explicit_model, ws, s, r), Status::Ok);
+      }
+      std::cout << "[implicit] constant metric, " << (driven ? "driven" : "free") << ", restart " << restart
+                << ", 1000 steps: |q - q_rattle| = " << (a.q - s.q).lpNorm<Eigen::Infinity>() << ", restarts "
+                << a.restarts << " and " << s.restarts << "\n";
+      EXPECT_LE((a.q - s.q).lpNorm<Eigen::Infinity>(), 1e-12) << driven << " " << restart;
+      EXPECT_EQ(a.restarts, s.restarts);
+      if (std::string(restart) != "0") {
+        EXPECT_GT(a.restarts, 0);
+      }
+    }
   // The explicit step refuses a configuration metric.
+  const Model implicit_model = constant_metric_sleigh(false);
   Workspace wrong(implicit_model);
-  State t = s;
+  const auto setup = scene("sleigh");
+  Workspace ws(setup.model);
+  State t = start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0);
   EXPECT_EQ(step(implicit_model, wrong, t, {0.01}), Status::MethodNotApplicable);
+}
+
+// The implicit form has the explicit method's period-2 mode (README): on sleigh_contact with
+// the plain method the energy of the average momentum collapses by t = 200; the default
+// automatic restarts (measured against the continuous multiplier with the metric's
+// Christoffel terms) keep it and the trajectory.
+TEST(Implicit, RestartsKeepLongRunsRight) {
+  const auto setup = scene("sleigh_contact");
+  const scenarios::SleighExact exact(1.0, 1.0, 0.2, 1.0, 1.0, 0.0, 0.0, 0.0);
+  double error[2], energy[2];
+  long restarts[2];
+  const char* policies[2] = {"auto", "0"};
+  for (int i = 0; i < 2; ++i) {
+    ImplicitWorkspace ws(setup.model);
+    ImplicitOptions o;
+    set_restart(o.restart, policies[i]);
+    ImplicitState s = implicit_start(setup.model, ws, 0.0, setup.q0, setup.v0, o);
+    Vector average(3), reflected(3);
+    ASSERT_EQ(ws.reflect(s.q, s.p, average, reflected, 0.0), Status::Ok);
+    const double e0 = ws.kinetic_energy(s.q, average);
+    energy[i] = 0.0;
+    for (int k = 0; k < 20000; ++k) {
+      ASSERT_EQ(implicit_step(setup.model, ws, s, o), Status::Ok) << ws.message();
+      ASSERT_EQ(ws.reflect(s.q, s.p, average, reflected, 0.0), Status::Ok);
+      energy[i] = std::max(energy[i], std::abs(ws.kinetic_energy(s.q, average) - e0) / e0);
+    }
+    const Eigen::Vector2d centre(s.q[0] + 0.2 * std::cos(s.q[2]), s.q[1] + 0.2 * std::sin(s.q[2]));
+    error[i] = std::max((centre - exact.positions({s.t}).back()).norm(), std::abs(s.q[2] - exact.heading(s.t)));
+    restarts[i] = s.restarts;
+  }
+  std::cout << "[implicit] sleigh_contact to t = 200: automatic restarts (" << restarts[0] << "): error " << error[0]
+            << ", energy of P* p+ " << energy[0] << "; plain: error " << error[1] << ", energy " << energy[1] << "\n";
+  EXPECT_LE(energy[0], 1e-4);
+  EXPECT_GT(energy[1], 0.5);
+  EXPECT_LE(error[0], 1e-2);
+  EXPECT_GT(error[1], 10 * error[0]);
 }
 
 TEST(Implicit, NewtonFailureLeavesTheStateUnchanged) {

@@ -84,11 +84,11 @@ TEST(NoAllocation, ScenesOnEveryBackend) {
           RattleOptions options;
           options.hitch = hitch;
           if (std::string(restart) == "every step") {
-            options.restart_tolerance = 1e-300;  // auto, measuring and restarting at every step
-            options.monitor_every = 1;
+            options.restart.tolerance = 1e-300;  // auto, measuring and restarting at every step
+            options.restart.monitor_every = 1;
+          } else {
+            set_restart(options.restart, restart);
           }
-          else
-            set_restart(options, restart);
           EXPECT_EQ(allocations_in_steps(setup.model, backend, setup.q0, setup.v0, options), 0)
               << c.scene << " " << (c.sets.empty() ? "" : c.sets.back()) << " on " << sparse::to_string(backend)
               << ", hitch " << to_string(hitch) << ", restart " << restart;
@@ -102,15 +102,26 @@ TEST(NoAllocation, ScenesOnEveryBackend) {
 TEST(NoAllocation, ImplicitGeneralForm) {
   const auto& info = scenarios::find_scene("sleigh_contact");
   const auto setup = info.build(info.defaults());
-  ImplicitWorkspace ws(setup.model);
-  ImplicitOptions o;
-  ImplicitState s = implicit_start(setup.model, ws, 0.0, setup.q0, setup.v0, o);
-  ASSERT_EQ(implicit_step(setup.model, ws, s, o), Status::Ok);
-  testing::start_counting_allocations();
-  for (int k = 0; k < 200; ++k)
-    if (implicit_step(setup.model, ws, s, o) != Status::Ok) break;
-  EXPECT_EQ(testing::stop_counting_allocations(), 0);
-  EXPECT_NEAR(s.t, 2.01, 1e-9) << "all steps ran";
+  for (const char* restart : {"auto", "0", "every step"}) {
+    ImplicitWorkspace ws(setup.model);
+    ImplicitOptions o;
+    if (std::string(restart) == "every step") {
+      o.restart.tolerance = 1e-300;  // measured and restarted at every step
+      o.restart.monitor_every = 1;
+    } else {
+      set_restart(o.restart, restart);
+    }
+    ImplicitState s = implicit_start(setup.model, ws, 0.0, setup.q0, setup.v0, o);
+    ASSERT_EQ(implicit_step(setup.model, ws, s, o), Status::Ok);
+    testing::start_counting_allocations();
+    for (int k = 0; k < 200; ++k)
+      if (implicit_step(setup.model, ws, s, o) != Status::Ok) break;
+    EXPECT_EQ(testing::stop_counting_allocations(), 0) << restart;
+    EXPECT_NEAR(s.t, 2.01, 1e-9) << "all steps ran";
+    if (std::string(restart) == "every step") {
+      EXPECT_EQ(s.restarts, 201);
+    }
+  }
 }
 
 // The DLA baseline (both constraint discretisations).

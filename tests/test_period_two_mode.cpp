@@ -40,7 +40,7 @@ std::vector<Sample> sleigh_mode(double h, double t_end, double every, const char
   const long steps = std::lround(t_end / h), stride = std::lround(every / h);
   RattleOptions options;
   options.h = h;
-  set_restart(options, restart);
+  set_restart(options.restart, restart);
   for (long k = 1; k <= steps; ++k) {
     EXPECT_EQ(step(setup.model, ws, s, options), Status::Ok);
     if (k % stride == 0) {

@@ -37,7 +37,7 @@ RattleOptions options(const char* restart, double h = 0.01, HitchMode hitch = Hi
   RattleOptions o;
   o.h = h;
   o.hitch = hitch;
-  set_restart(o, restart);
+  set_restart(o.restart, restart);
   return o;
 }
 
@@ -249,7 +249,7 @@ TEST(AutoRestart, HolonomicModeMeasuresTheModeAboutItsOffset) {
     Workspace ws(setup.model);
     State s = start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0);
     RattleOptions o = options("auto", h);
-    o.monitor_every = 1;
+    o.restart.monitor_every = 1;
     amplitude[i] = 0.0;
     for (long k = 0; k < std::lround(20.0 / h); ++k) {
       ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok) << ws.message();

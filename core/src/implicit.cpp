@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "implicit_internal.hpp"
 #include "option_checks.hpp"
 
 namespace nonholo {
@@ -16,6 +17,7 @@ void validate(const ImplicitOptions& o) {
   detail::check_step_size(o.h);
   detail::check_newton(o.newton_tolerance, o.max_newton_iterations);
   detail::check_pivot_ratio(o.min_pivot_ratio);
+  validate(o.restart);
 }
 
 ImplicitWorkspace::ImplicitWorkspace(const Model& model)
@@ -25,15 +27,16 @@ ImplicitWorkspace::ImplicitWorkspace(const Model& model)
       w(Eigen::MatrixXd::Zero(model.num_coordinates(), model.num_one_forms())),
       c(Eigen::MatrixXd::Zero(model.num_one_forms(), model.num_one_forms())),
       metric_llt(model.num_coordinates()), c_llt(model.num_one_forms()),
-      jacobian_lu(model.num_coordinates()), model_(&model) {
+      jacobian_lu(model.num_coordinates()), bias(model), model_(&model) {
   if (!model.has_configuration_metric())
     throw std::invalid_argument("the implicit general form needs a model with a configuration metric "
                                 "(ModelBuilder::configuration_metric); use step() for a constant metric");
   const int n = model.num_coordinates(), m = model.num_one_forms();
-  for (Vector* v : {&delta, &residual, &rhs, &terms, &q_mid, &q_next, &p_minus, &p_next, &force, &scratch, &y})
+  for (Vector* v : {&delta, &residual, &rhs, &terms, &q_mid, &q_next, &p_minus, &p_next, &force, &scratch, &y,
+                    &p_tilde, &velocity, &gamma, &mode_a, &mode_c})
     v->setZero(n);
   mu_values.setZero(model.num_one_form_values());
-  lambda.setZero(m);
+  for (Vector* v : {&lambda, &lambda_f, &lambda_b}) v->setZero(m);
 }
 
 Status ImplicitWorkspace::fail(Status status, const char* format, ...) {
@@ -44,9 +47,8 @@ Status ImplicitWorkspace::fail(Status status, const char* format, ...) {
   return status;
 }
 
-namespace {
+namespace detail {
 
-// Dense mu(q) from the pattern.
 void dense_one_forms(const Model& model, ConstVecRef q, ImplicitWorkspace& ws) {
   if (model.num_one_forms() == 0) return;
   model.one_form_values(q, ws.mu_values);
@@ -56,13 +58,19 @@ void dense_one_forms(const Model& model, ConstVecRef q, ImplicitWorkspace& ws) {
     for (int k = pat.row_ptr[r]; k < pat.row_ptr[r + 1]; ++k) ws.mu(r, pat.col_idx[k]) = ws.mu_values[k];
 }
 
-// f = -grad V + F at (t, q) into ws.force.
 void applied(const Model& model, double t, ConstVecRef q, ImplicitWorkspace& ws) {
   if (model.has_applied_force())
     model.applied_force(t, q, ws.force, ws.scratch);
   else
     ws.force.setZero();
 }
+
+}  // namespace detail
+
+namespace {
+
+using detail::applied;
+using detail::dense_one_forms;
 
 // terms_i = delta^T dM/dq_i (q_mid) delta.
 void metric_terms(const Model& model, ImplicitWorkspace& ws) {
@@ -132,31 +140,16 @@ ImplicitState implicit_start(const Model& model, ImplicitWorkspace& ws, double t
   Vector p = ws.metric * v_guess, p_tilde(n), unused(n);
   if (ws.reflect(q0, p, p_tilde, unused, o.min_pivot_ratio) != Status::Ok)
     throw std::runtime_error(std::string("implicit start: ") + ws.message());
-  const Vector v = ws.metric_llt.solve(p_tilde);
-  // Christoffel term Gamma_i = sum_j (dM/dq_j v)_i v_j - (1/2) v^T dM/dq_i v.
-  Vector gamma = Vector::Zero(n);
-  for (int j = 0; j < n; ++j) {
-    model.metric_derivative(q0, j, ws.dmetric);
-    gamma += (ws.dmetric * v) * v[j];
-    gamma[j] -= 0.5 * v.dot(ws.dmetric * v);
-  }
+  // lambda(0) of the continuous equations, with the metric's Christoffel terms.
+  ws.velocity = ws.metric_llt.solve(p_tilde);
   applied(model, t0, q0, ws);
   Vector constraint_force = Vector::Zero(n);
   if (m > 0) {
-    // C lambda = -(mu' v) - mu M^-1 (f - Gamma), the multiplier of the continuous equations.
-    Workspace bias_ws(model);  // set-up only: the bias (analytic or by differences)
-    Vector bias(m);
-    if (one_form_bias(model, bias_ws, q0, v, bias) != Status::Ok)
-      throw std::runtime_error(std::string("implicit start: ") + bias_ws.message());
-    model.metric(q0, ws.metric);
-    ws.metric_llt.compute(ws.metric);
-    dense_one_forms(model, q0, ws);
-    const Eigen::MatrixXd w = ws.metric_llt.solve(ws.mu.transpose());
-    const Eigen::MatrixXd c = ws.mu * w;
-    const Vector lambda = c.llt().solve(-bias - ws.mu * ws.metric_llt.solve(ws.force - gamma));
-    constraint_force = ws.mu.transpose() * lambda;
+    if (detail::continuous_multiplier_parts(model, ws, q0) != Status::Ok)
+      throw std::runtime_error(std::string("implicit start: ") + ws.message());
+    constraint_force = ws.mu.transpose() * (ws.lambda_f + ws.lambda_b);
   }
-  s.p = p_tilde - (0.5 * o.h) * (ws.force + constraint_force);
+  s.p = p_tilde - (0.5 * o.h) * constraint_force;  // p+ = p~ - (h/2) mu^T lambda (it holds (h/2) f already)
   return s;
 }
 
@@ -216,10 +209,18 @@ Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& s
   ws.p_next += (0.5 * h) * ws.force;
   if (!std::isfinite(ws.q_next.sum() + ws.p_next.sum()))
     return ws.fail(Status::NonFiniteState, "the step from t = %.17g produced NaN or Inf: reduce the step size (h = %g)", s.t, o.h);
+  ModeWatch watch = s.watch;
+  ws.parasitic = 0.0;
+  ws.restarted = false;
+  if (model.num_one_forms() > 0 && (status = detail::implicit_control_mode(model, ws, s, o, watch)) != Status::Ok)
+    return status;
   s.q.swap(ws.q_next);
   s.p.swap(ws.p_next);
   s.t += h;
   s.newton_iterations = it;
+  ++s.steps;
+  if (ws.restarted) ++s.restarts;
+  s.watch = watch;
   return Status::Ok;
 }
 

@@ -33,47 +33,6 @@ HitchMode hitch_mode_from_string(const std::string& name) {
   throw std::invalid_argument("unknown hitch mode '" + name + "' (valid: oneform, holonomic)");
 }
 
-const char* to_string(RestartMode mode) {
-  switch (mode) {
-    case RestartMode::Never: return "never";
-    case RestartMode::Periodic: return "periodic";
-    case RestartMode::Auto: return "auto";
-  }
-  return "unknown";
-}
-
-void set_restart(RattleOptions& o, const std::string& spec) {
-  if (spec == "auto") {
-    o.restart = RestartMode::Auto;
-    return;
-  }
-  if (spec == "0" || spec == "never") {
-    o.restart = RestartMode::Never;
-    return;
-  }
-  long k = 0;
-  std::size_t used = 0;
-  try {
-    k = std::stol(spec, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != spec.size() || used == 0 || k < 1 || k > 1000000000L)
-    throw std::invalid_argument("restart '" + spec +
-                                "': expected auto, 0 (never) or a number of steps K from 1 to 1e9");
-  o.restart = RestartMode::Periodic;
-  o.restart_every = static_cast<int>(k);
-}
-
-std::string restart_spec(const RattleOptions& o) {
-  switch (o.restart) {
-    case RestartMode::Never: return "0";
-    case RestartMode::Periodic: return std::to_string(o.restart_every);
-    case RestartMode::Auto: return "auto";
-  }
-  return "unknown";
-}
-
 void validate(const RattleOptions& options) {
   detail::check_step_size(options.h);
   detail::check_pivot_ratio(options.min_pivot_ratio);
@@ -81,14 +40,7 @@ void validate(const RattleOptions& options) {
     detail::reject("gap_tolerance", options.gap_tolerance, "must be positive and finite");
   if (options.max_gap_iterations < 1)
     detail::reject("max_gap_iterations", options.max_gap_iterations, "must be at least 1");
-  if (options.restart == RestartMode::Periodic && options.restart_every < 1)
-    detail::reject("restart_every", options.restart_every, "must be at least 1 with RestartMode::Periodic");
-  if (options.restart_every < 0) detail::reject("restart_every", options.restart_every, "must not be negative");
-  if (!(options.restart_tolerance >= 0.0) || !std::isfinite(options.restart_tolerance))
-    detail::reject("restart_tolerance", options.restart_tolerance, "must be 0 (h^3) or positive and finite");
-  if (options.monitor_every < 0) detail::reject("monitor_every", options.monitor_every, "must be 0 (never) or positive");
-  if (options.restart == RestartMode::Auto && options.monitor_every < 1)
-    detail::reject("monitor_every", options.monitor_every, "must be at least 1 with RestartMode::Auto");
+  validate(options.restart);
 }
 
 namespace {
@@ -101,7 +53,7 @@ Status gap_failure(const Model& model, Workspace& ws, const State& s, const Ratt
                    int iterations, double tolerance) {
   double mode = 0.0;  // measured at the step's start, where C(q_k) is factorised
   if (parasitic_amplitude(model, ws, s, o.h, mode, 0.0) == Status::Ok && mode >= 1e-2) {
-    if (o.restart == RestartMode::Auto)
+    if (o.restart.mode == RestartMode::Auto)
       return ws.fail(Status::GapNotConverged,
                      "hitch gap %.3g after %d corrections (tolerance %.3g) from t = %.17g: the period-2 "
                      "mode carries %.2g of the momentum: restart more often (lower restart_tolerance, "
@@ -183,57 +135,33 @@ void kick_drift(const sparse::BlockDiagonal& minv, double h, const double* q, co
   for (int i = 0; i < n; ++i) qn[i] = q[i] + h * v[i];
 }
 
-// Automatic restarts: how many steps after a measurement of amplitude a the next one is due.
-// The amplitude is predicted from its growth per step g between the last two measurements
-// (g = 2 when unknown: where the motion attracts strongly, a whipped trailer, the mode doubles
-// per step); the next measurement comes after the most steps, up to `widest`, that keep the
-// prediction below half the tolerance, and at the next step once the tolerance is passed.
-long measurement_interval(double a, double tolerance, const State::ModeWatch& watch, long now, long widest) {
-  if (!(a <= tolerance)) return 1;
-  if (!(a > 0.0)) return widest;
-  double growth = 2.0;
-  if (watch.last_amplitude > 0.0)
-    growth = std::max(1.0, std::pow(a / watch.last_amplitude, 1.0 / static_cast<double>(now - watch.last_step)));
-  if (growth == 1.0) return widest;
-  const double steps = std::log(0.5 * tolerance / a) / std::log(growth);
-  return std::max(1L, std::min(widest, static_cast<long>(steps)));
-}
-
 // After the step's candidate state at t_{k+1} is complete (ws.q_next, p_next, lambda,
 // force_next, applied, C(q_{k+1}) factorised): measure the parasitic amplitude when it is
-// due, restart when options ask, and plan the next measurement in `watch` (without automatic
-// restarts the measurement only reports, every monitor_every steps).
-Status control_mode(const Model& model, Workspace& ws, const State& s, const RattleOptions& o,
-                    State::ModeWatch& watch) {
+// due, restart when options ask, and plan the next measurement in `watch`.
+Status control_mode(const Model& model, Workspace& ws, const State& s, const RestartOptions& o, double h,
+                    ModeWatch& watch) {
   ws.parasitic = std::numeric_limits<double>::quiet_NaN();
   ws.restarted = false;
   const long now = s.steps + 1;
-  const bool automatic = o.restart == RestartMode::Auto;
   const bool gap_offset = ws.gap_iterations > 0;
   // In holonomic mode the start's lambda~_0 = lambda(0) lacks the offset -dlambda/2; the first
   // step absorbs the difference (it lies in the hitch directions), so a measurement there
   // would report a transient that is not a mode.
-  const bool measure = o.monitor_every > 0 && now >= watch.next_step && !(gap_offset && s.steps == 0);
-  bool restart = o.restart == RestartMode::Periodic && o.restart_every > 0 && now % o.restart_every == 0;
+  const bool measure = detail::measurement_due(o, watch, now) && !(gap_offset && s.steps == 0);
+  bool restart = detail::periodic_restart_due(o, now);
   if (!measure && !restart) return Status::Ok;
   Status status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied);
   if (status != Status::Ok) return status;
   if (measure) {
-    const double a = ws.parasitic = detail::parasitic_of(model, ws, ws.p_next, ws.lambda, o.h, gap_offset);
-    const double tolerance = o.parasitic_tolerance();
-    if (automatic && !(a <= tolerance)) restart = true;
-    watch.next_step = now + (automatic ? measurement_interval(a, tolerance, watch, now, o.monitor_every) : o.monitor_every);
-    watch.last_step = now;
-    watch.last_amplitude = a;
+    ws.parasitic = detail::parasitic_of(model, ws, ws.p_next, ws.lambda, h, gap_offset);
+    restart = detail::plan_after_measurement(o, h, watch, now, ws.parasitic) || restart;
   }
   if (restart) {
-    status = detail::rescaled_restart(model, ws, ws.q_next, ws.p_next, ws.lambda, ws.force_next, ws.applied, o.h,
+    status = detail::rescaled_restart(model, ws, ws.q_next, ws.p_next, ws.lambda, ws.force_next, ws.applied, h,
                                       gap_offset);
     if (status != Status::Ok) return status;
     ws.restarted = true;
-    watch.last_step = now;
-    watch.last_amplitude = 0.0;  // the mode starts again from its seed: measure it after one step
-    if (automatic) watch.next_step = now + 1;
+    detail::plan_after_restart(o, watch, now);
   }
   return Status::Ok;
 }
@@ -319,9 +247,9 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
                    s.t, h);
 
   // The period-2 mode at t_{k+1} (restart.hpp): measure, then restart as asked.
-  State::ModeWatch watch = s.watch;
+  ModeWatch watch = s.watch;
   if (m > 0) {
-    const Status status = control_mode(model, ws, s, options, watch);
+    const Status status = control_mode(model, ws, s, options.restart, h, watch);
     if (status != Status::Ok) return status;
   } else {
     ws.parasitic = 0.0;

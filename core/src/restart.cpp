@@ -34,65 +34,6 @@ Status solve_negated(Workspace& ws, Vector& rhs, double* lambda) {
   return ws.solve(rhs.data(), lambda);
 }
 
-// Root of the increasing-near-1 function g with g(1) = g1 (so the scale s closest to 1 that
-// keeps the energy): a bracket grown from 1 by the Newton estimate, then Illinois regula
-// falsi. Returns false when no bracket exists (no positive scale keeps the energy).
-template <class G>
-bool find_scale(G&& g, double g1, double slope, double floor, double& s_out) {
-  s_out = 1.0;
-  if (std::abs(g1) <= floor) return true;
-  double d = (slope > 0.0 && std::isfinite(slope)) ? std::abs(g1) / slope : 1e-8;
-  d = std::max(d, 16.0 * kEps);
-  double lo, hi, glo, ghi;
-  if (g1 > 0.0) {
-    hi = 1.0;
-    ghi = g1;
-    for (int i = 0;; ++i, d *= 4.0) {
-      lo = std::max(0.0, 1.0 - 2.0 * d);
-      glo = g(lo);
-      if (glo <= 0.0) break;
-      if (lo == 0.0 || i == 60 || !std::isfinite(glo)) return false;
-      hi = lo;
-      ghi = glo;
-    }
-  } else {
-    lo = 1.0;
-    glo = g1;
-    for (int i = 0;; ++i, d *= 4.0) {
-      hi = 1.0 + 2.0 * d;
-      ghi = g(hi);
-      if (ghi >= 0.0) break;
-      if (i == 60 || !std::isfinite(ghi)) return false;
-      lo = hi;
-      glo = ghi;
-    }
-  }
-  double best = std::abs(glo) < std::abs(ghi) ? lo : hi, best_g = std::min(std::abs(glo), std::abs(ghi));
-  int side = 0;
-  for (int it = 0; it < 200 && best_g > floor && hi - lo > 4.0 * kEps * hi; ++it) {
-    double s = (lo * ghi - hi * glo) / (ghi - glo);
-    if (!(s > lo && s < hi)) s = 0.5 * (lo + hi);
-    const double gs = g(s);
-    if (std::abs(gs) < best_g) {
-      best = s;
-      best_g = std::abs(gs);
-    }
-    if (gs < 0.0) {
-      lo = s;
-      glo = gs;
-      if (side == -1) ghi *= 0.5;
-      side = -1;
-    } else {
-      hi = s;
-      ghi = gs;
-      if (side == 1) glo *= 0.5;
-      side = 1;
-    }
-  }
-  s_out = best;
-  return true;
-}
-
 // The momentum maps' directions xi_j = dJ_j/dp at q, projected M-orthogonally onto D(q) and
 // M-orthonormalised into ws.map_directions (a direction orthogonal to D, or dependent on the
 // others, becomes 0). For p with M^-1 p in D, J_j(q, p) = xi_j^T p = (P xi_j)^T p. Also
@@ -142,6 +83,33 @@ Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, Con
 
 }  // namespace
 
+bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, long now, double a) {
+  long interval = o.monitor_every;
+  const double tolerance = o.tolerance_for(h);
+  const bool restart = o.mode == RestartMode::Auto && !(a <= tolerance);
+  if (o.mode == RestartMode::Auto) {
+    if (!(a <= tolerance)) {
+      interval = 1;
+    } else if (a > 0.0) {
+      double growth = 2.0;
+      if (w.last_amplitude > 0.0)
+        growth = std::max(1.0, std::pow(a / w.last_amplitude, 1.0 / static_cast<double>(now - w.last_step)));
+      if (growth > 1.0)
+        interval = std::min(interval, static_cast<long>(std::log(0.5 * tolerance / a) / std::log(growth)));
+    }
+  }
+  w.next_step = now + std::max(1L, interval);
+  w.last_step = now;
+  w.last_amplitude = a;
+  return restart;
+}
+
+void plan_after_restart(const RestartOptions& o, ModeWatch& w, long now) {
+  w.last_step = now;
+  w.last_amplitude = 0.0;
+  if (o.mode == RestartMode::Auto) w.next_step = now + 1;
+}
+
 Status continuous_multiplier_at(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p,
                                 ConstVecRef applied) {
   const auto& minv = model.inverse_mass();
@@ -175,21 +143,16 @@ double parasitic_of(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRe
 Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, VecRef lambda,
                         VecRef force, ConstVecRef applied, double h, bool gap_offset) {
   const auto& minv = model.inverse_mass();
-  const bool forced = model.has_applied_force(), potential = model.has_potential();
+  const bool forced = model.has_applied_force();
   const bool maps = !model.momentum_maps().empty();
   const double half = 0.5 * h;
   Status status = Status::Ok;
 
+  auto apply_minv = [&minv](ConstVecRef x, VecRef y) { minv.multiply(x.data(), y.data()); };
   // The energy to keep: that of the arriving post-momentum, with the potential averaged over
   // q_k and q_{k-1} = q_k - h M^-1 p_- (what diagnose() reports).
-  const double v_now = potential ? model.potential(q) : 0.0;
-  ws.scratch_n = p - half * force;
-  minv.multiply(ws.scratch_n.data(), ws.scratch_n2.data());
-  double target = 0.5 * ws.scratch_n.dot(ws.scratch_n2);
-  if (potential) {
-    ws.scratch_n2 = q - h * ws.scratch_n2;
-    target += 0.5 * (model.potential(ws.scratch_n2) + v_now);
-  }
+  ws.scratch_n2 = p - half * force;
+  const double target = arriving_energy(model, q, ws.scratch_n2, h, apply_minv, ws.scratch_n);
 
   // lambda_s = lambda_F + lambda_B(p): split off the force's part, which does not scale.
   if (forced) {
@@ -239,33 +202,12 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   model.mu_transpose_times(ws.mu_values.data(), ws.lambda_s.data(), c.data());
   c *= -half;
 
-  // K(s) = (1/2) |a + s b + s^2 c|^2_{M^-1} = sum k_i s^i.
-  minv.multiply(a.data(), ws.scratch_n.data());
-  const double aa = a.dot(ws.scratch_n), ab = b.dot(ws.scratch_n), ac = c.dot(ws.scratch_n);
-  minv.multiply(c.data(), ws.scratch_n.data());
-  const double bc = b.dot(ws.scratch_n), cc = c.dot(ws.scratch_n);
-  const double bb = inverse_mass_dot(model, b, b, ws.scratch_n);
-  const double k0 = 0.5 * aa, k1 = ab, k2 = 0.5 * bb + ac, k3 = bc, k4 = 0.5 * cc;
-  auto residual = [&](double s) {
-    double e = (((k4 * s + k3) * s + k2) * s + k1) * s + k0;
-    if (potential) {
-      ws.scratch_n = a + s * b + (s * s) * c;
-      minv.multiply(ws.scratch_n.data(), ws.scratch_n2.data());
-      ws.scratch_n2 = q - h * ws.scratch_n2;
-      e += 0.5 * (model.potential(ws.scratch_n2) + v_now);
-    }
-    return e - target;
-  };
-  const double g1 = residual(1.0);
-  const double floor = 8.0 * kEps * (std::abs(target) + std::abs(k0) + std::abs(k1) + std::abs(k2) + std::abs(k3) +
-                                     std::abs(k4) + std::abs(v_now));
-  double s = 1.0;
-  if (!std::isfinite(g1) || !find_scale(residual, g1, k1 + 2.0 * k2 + 3.0 * k3 + 4.0 * k4, floor, s))
+  double s = 1.0, plain = 0.0;
+  if (!scale_keeping_energy(model, q, a, b, c, h, target, apply_minv, ws.scratch_n, ws.scratch_n2, s, plain))
     return ws.fail(Status::RestartFailed,
-                   "no rescale of p~ keeps the post-momentum energy %.17g (|p~_r|^2_M^-1 = %.3g; "
-                   "energy change of the plain restart %.3g): restart less often or not at all "
-                   "(RattleOptions::restart, --restart)",
-                   target, bb, g1);
+                   "no rescale of p~ keeps the post-momentum energy %.17g (energy change of the plain "
+                   "restart %.3g): restart less often or not at all (RattleOptions::restart, --restart)",
+                   target, plain);
 
   // The new momentum; with momentum maps, checked before anything is written.
   if (maps) {

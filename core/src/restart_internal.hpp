@@ -5,8 +5,13 @@
 // (ignored otherwise). They use ws.velocity, p_half, p_hat, scratch_n, scratch_n2, rhs,
 // scratch_m, lambda_s, lambda_f and the map_* buffers as scratch.
 #include <nonholo/model.hpp>
+#include <nonholo/restart_options.hpp>
 #include <nonholo/status.hpp>
 #include <nonholo/workspace.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
 
 namespace nonholo::detail {
 
@@ -29,5 +34,132 @@ double parasitic_of(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRe
 // unchanged.
 Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, VecRef lambda,
                         VecRef force, ConstVecRef applied, double h, bool gap_offset);
+
+// --- the measurement schedule, shared by the explicit and the implicit step ----------------
+// Whether the step that arrives at step count `now` measures the amplitude, or restarts
+// periodically.
+inline bool measurement_due(const RestartOptions& o, const ModeWatch& w, long now) {
+  return o.monitor_every > 0 && now >= w.next_step;
+}
+inline bool periodic_restart_due(const RestartOptions& o, long now) {
+  return o.mode == RestartMode::Periodic && o.every > 0 && now % o.every == 0;
+}
+// After measuring amplitude a at step `now`: plans the next measurement and returns whether
+// Auto restarts. Without Auto the measurement only reports, every monitor_every steps. With
+// it the amplitude is predicted from its growth per step g between the last two measurements
+// (g = 2 when unknown: where the motion attracts strongly, a whipped trailer, the mode doubles
+// per step); the next measurement comes after the most steps, up to monitor_every, that keep
+// the prediction below half the tolerance, and at the next step once the tolerance is passed.
+bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, long now, double a);
+// After a restart at step `now`: the mode starts again from its seed; Auto measures it next step.
+void plan_after_restart(const RestartOptions& o, ModeWatch& w, long now);
+
+// The scale s closest to 1 with g(s) = 0, for g increasing near 1 with g(1) = g1 and slope
+// about `slope` there; |g| <= floor counts as 0: a bracket grown from 1 by the Newton
+// estimate, then Illinois regula falsi. Returns false when no bracket exists (no positive
+// scale keeps the energy).
+template <class G>
+bool find_scale(G&& g, double g1, double slope, double floor, double& s_out) {
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  s_out = 1.0;
+  if (std::abs(g1) <= floor) return true;
+  double d = (slope > 0.0 && std::isfinite(slope)) ? std::abs(g1) / slope : 1e-8;
+  d = std::max(d, 16.0 * eps);
+  double lo, hi, glo, ghi;
+  if (g1 > 0.0) {
+    hi = 1.0;
+    ghi = g1;
+    for (int i = 0;; ++i, d *= 4.0) {
+      lo = std::max(0.0, 1.0 - 2.0 * d);
+      glo = g(lo);
+      if (glo <= 0.0) break;
+      if (lo == 0.0 || i == 60 || !std::isfinite(glo)) return false;
+      hi = lo;
+      ghi = glo;
+    }
+  } else {
+    lo = 1.0;
+    glo = g1;
+    for (int i = 0;; ++i, d *= 4.0) {
+      hi = 1.0 + 2.0 * d;
+      ghi = g(hi);
+      if (ghi >= 0.0) break;
+      if (i == 60 || !std::isfinite(ghi)) return false;
+      lo = hi;
+      glo = ghi;
+    }
+  }
+  double best = std::abs(glo) < std::abs(ghi) ? lo : hi, best_g = std::min(std::abs(glo), std::abs(ghi));
+  int side = 0;
+  for (int it = 0; it < 200 && best_g > floor && hi - lo > 4.0 * eps * hi; ++it) {
+    double s = (lo * ghi - hi * glo) / (ghi - glo);
+    if (!(s > lo && s < hi)) s = 0.5 * (lo + hi);
+    const double gs = g(s);
+    if (std::abs(gs) < best_g) {
+      best = s;
+      best_g = std::abs(gs);
+    }
+    if (gs < 0.0) {
+      lo = s;
+      glo = gs;
+      if (side == -1) ghi *= 0.5;
+      side = -1;
+    } else {
+      hi = s;
+      ghi = gs;
+      if (side == 1) glo *= 0.5;
+      side = 1;
+    }
+  }
+  s_out = best;
+  return true;
+}
+
+// The energy an arriving post-momentum p_- carries at q: (1/2) p_-^T M^-1 p_-, plus with a
+// potential (V(q - h M^-1 p_-) + V(q)) / 2, the averaged potential diagnose() reports.
+// minv(x, y) sets y = M^-1 x; w: n entries of scratch.
+template <class Minv>
+double arriving_energy(const Model& model, ConstVecRef q, ConstVecRef p_minus, double h, Minv&& minv, VecRef w) {
+  minv(p_minus, w);
+  double e = 0.5 * p_minus.dot(w);
+  if (model.has_potential()) {
+    w = q - h * w;
+    e += 0.5 * (model.potential(w) + model.potential(q));
+  }
+  return e;
+}
+
+// The scale s next to 1 that gives the arriving post-momentum p_-(s) = a + s b + s^2 c the
+// energy `target` (arriving_energy): (1/2)|p_-(s)|^2_{M^-1} is a quartic in s, the potential
+// is evaluated at each trial. False when no positive scale does it; `plain` is then the
+// energy change at s = 1. w1, w2: n entries of scratch each (a, b, c must not be them).
+template <class Minv>
+bool scale_keeping_energy(const Model& model, ConstVecRef q, ConstVecRef a, ConstVecRef b, ConstVecRef c, double h,
+                          double target, Minv&& minv, VecRef w1, VecRef w2, double& s, double& plain) {
+  minv(a, w1);
+  const double aa = a.dot(w1), ab = b.dot(w1), ac = c.dot(w1);
+  minv(c, w1);
+  const double bc = b.dot(w1), cc = c.dot(w1);
+  minv(b, w1);
+  const double bb = b.dot(w1);
+  const double k0 = 0.5 * aa, k1 = ab, k2 = 0.5 * bb + ac, k3 = bc, k4 = 0.5 * cc;
+  const bool potential = model.has_potential();
+  const double v_now = potential ? model.potential(q) : 0.0;
+  auto residual = [&](double x) {
+    double e = (((k4 * x + k3) * x + k2) * x + k1) * x + k0;
+    if (potential) {
+      w1 = a + x * b + (x * x) * c;
+      minv(w1, w2);
+      w2 = q - h * w2;
+      e += 0.5 * (model.potential(w2) + v_now);
+    }
+    return e - target;
+  };
+  plain = residual(1.0);
+  const double floor = 8.0 * std::numeric_limits<double>::epsilon() *
+                       (std::abs(target) + std::abs(k0) + std::abs(k1) + std::abs(k2) + std::abs(k3) + std::abs(k4) +
+                        std::abs(v_now));
+  return std::isfinite(plain) && find_scale(residual, plain, k1 + 2.0 * k2 + 3.0 * k3 + 4.0 * k4, floor, s);
+}
 
 }  // namespace nonholo::detail

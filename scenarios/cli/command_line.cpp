@@ -45,7 +45,7 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                   "measured parasitic amplitude exceeds --restart-tol), K (every K steps) or 0 (never: "
                   "the paper's plain method)");
   cmd->add_option("--restart-tol", o.config.restart_tol,
-                  "--restart auto: restart when the parasitic amplitude exceeds this (default dt^3)");
+                  "--restart auto: restart when the parasitic amplitude exceeds this (default min(dt^3, 1e-3))");
   cmd->add_option("--monitor-every", o.config.monitor_every,
                   "measure the parasitic amplitude every K steps (default 8; 0: never, not with auto)");
 }
@@ -71,7 +71,7 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   if (run.restart == "auto" && run.monitor_every == 0)
     throw std::invalid_argument("--monitor-every 0 turns off the measurement that --restart auto needs");
   try {
-    RattleOptions check;
+    RestartOptions check;
     set_restart(check, run.restart);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("--") + e.what());

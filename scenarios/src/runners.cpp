@@ -87,6 +87,7 @@ class ImplicitRunner final : public Runner {
   ImplicitRunner(const SceneSetup& setup, const MethodChoice& c) : model_(setup.model), ws_(setup.model) {
     options_.h = c.rattle.h;
     options_.min_pivot_ratio = c.rattle.min_pivot_ratio;
+    options_.restart = c.rattle.restart;
     state_ = implicit_start(model_, ws_, setup.t0, setup.q0, setup.v0, options_);
     average_.setZero(model_.num_coordinates());
     reflected_.setZero(model_.num_coordinates());
@@ -117,6 +118,8 @@ class ImplicitRunner final : public Runner {
   }
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return "dense-implicit"; }
+  double parasitic() const override { return ws_.parasitic; }
+  long restarts() const override { return state_.restarts; }
 
  private:
   const Model& model_;

@@ -199,7 +199,7 @@ void long_time(const WorkPrecisionConfig& config, std::ostream& log) {
     MethodChoice m;
     m.method = name;
     m.rattle.hitch = hitch;
-    set_restart(m.rattle, restart);
+    set_restart(m.rattle.restart, restart);
     m.reference.tol = 1e-8;
     return m;
   };
@@ -214,7 +214,7 @@ void long_time(const WorkPrecisionConfig& config, std::ostream& log) {
     for (const MethodChoice& m : {method("reflection", r.hitch), method("reflection", r.hitch, "0"),
                                   method("dla-midpoint", r.hitch), method("rk4", r.hitch), method("arkode-dp5", r.hitch)}) {
       const Trajectory tr = integrate(setup, m, r.t_end, r.sample);
-      const bool plain = m.method == "reflection" && m.rattle.restart == RestartMode::Never;
+      const bool plain = m.method == "reflection" && m.rattle.restart.mode == RestartMode::Never;
       const std::string label = m.method + (plain ? "+plain" : "");
       const Diagnostics& d0 = tr.samples.front().d;
       for (std::size_t k = 0; k < tr.samples.size(); ++k) {

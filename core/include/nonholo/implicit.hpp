@@ -8,8 +8,10 @@
 // rattle.hpp; use this one for models with ModelBuilder::configuration_metric. Dense linear
 // algebra: meant for small systems.
 #include <nonholo/model.hpp>
+#include <nonholo/restart_options.hpp>
 #include <nonholo/sparse/message.hpp>
 #include <nonholo/status.hpp>
+#include <nonholo/workspace.hpp>
 
 #include <cstdarg>
 
@@ -24,6 +26,12 @@ struct ImplicitOptions {
   double newton_tolerance = 1e-14;
   int max_newton_iterations = 30;  // ... or fails with Status::NewtonNotConverged.
   double min_pivot_ratio = 1e-12;
+  // The period-2 mode, as in RattleOptions: with p+ = p~ - (h/2) mu^T lambda~ (p~ = P* p+, the
+  // average momentum) the multiplier lambda~ is measured against the continuous one (with the
+  // metric's Christoffel terms) and restarted keeping the energy of p+ - (h/2) f (with the
+  // potential averaged as the explicit restart does). A model with momentum maps is not
+  // restarted by this form (Status::RestartFailed): use RestartMode::Never.
+  RestartOptions restart = {};
 };
 void validate(const ImplicitOptions& options);  // throws std::invalid_argument
 
@@ -32,6 +40,8 @@ struct ImplicitState {
   double t = 0.0;
   Vector q, p;
   int newton_iterations = 0;  // taken by the last step
+  long steps = 0, restarts = 0;
+  ModeWatch watch;
 };
 
 // Dense buffers sized once from the model (n coordinates, m one-forms).
@@ -52,6 +62,14 @@ class ImplicitWorkspace {
   Eigen::LLT<Eigen::MatrixXd> metric_llt, c_llt;
   Eigen::PartialPivLU<Eigen::MatrixXd> jacobian_lu;
   Vector delta, residual, rhs, terms, q_mid, q_next, p_minus, p_next, force, scratch, mu_values, lambda, y;
+  // The period-2 mode: the average momentum and its velocity, the Christoffel term, the
+  // continuous multiplier's parts (force, and quadratic in the velocity), the restart's a and
+  // c, and a Workspace for the one-forms' bias (its difference quotient needs scratch).
+  Vector p_tilde, velocity, gamma, lambda_f, lambda_b, mode_a, mode_c;
+  Workspace bias;
+  // What the last successful step found (as Workspace::parasitic and restarted).
+  double parasitic = 0.0;
+  bool restarted = false;
 
  private:
   const Model* model_;
@@ -60,11 +78,13 @@ class ImplicitWorkspace {
 
 // Consistent start from a velocity guess: p~_0 = M(q0) v projected M(q0)-orthogonally onto
 // D(q0), lambda(0) of the index-reduced equations (with the metric's Christoffel terms), and
-// p+_0 = p~_0 - (h/2)(f_0 + mu_0^T lambda(0)). Throws on bad sizes or dependent one-forms.
+// p+_0 = p~_0 - (h/2) mu_0^T lambda(0) (p+ is the explicit method's p_{k-1/2} + (h/2) f_k, so
+// P* p+ = p~). Throws on bad sizes or dependent one-forms.
 ImplicitState implicit_start(const Model& model, ImplicitWorkspace& ws, double t0, ConstVecRef q0,
                              ConstVecRef v_guess, const ImplicitOptions& options);
 
-// One step; never throws or allocates; on failure the state is unchanged.
+// One step, then the period-2 mode as options.restart asks (ws.parasitic, ws.restarted); never
+// throws or allocates; on failure the state is unchanged.
 Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& state,
                      const ImplicitOptions& options);
 

@@ -5,6 +5,7 @@
 // State with nonholo/start.hpp; the integrators keep the four fields consistent. A step
 // commits by swapping these vectors with the workspace's scratch (no copy), so their data()
 // pointers change from step to step: do not keep pointers into a State across steps.
+#include <nonholo/restart_options.hpp>
 #include <nonholo/types.hpp>
 
 namespace nonholo {
@@ -17,14 +18,7 @@ struct State {
   Vector force;   // f(t_k, q_k) + mu(q_k)^T lambda~_k
   long steps = 0;     // steps taken since the start (schedules restarts and measurements)
   long restarts = 0;  // multiplier restarts since the start (RattleOptions::restart)
-  // When the step measures the period-2 mode's amplitude next (a step count), and the last
-  // amplitude measured with its step count (0 after a restart): the step predicts the mode's
-  // growth from them (RattleOptions::monitor_every).
-  struct ModeWatch {
-    long next_step = 1;
-    long last_step = 0;
-    double last_amplitude = 0.0;
-  } watch;
+  ModeWatch watch;    // when the period-2 mode is measured next (restart_options.hpp)
 
   // The post-momentum leaving t_k, p_{k+1/2} = p~_k + (h/2) force, and the one arriving,
   // p_{k-1/2} = p~_k - (h/2) force (both exact identities of the scheme).

@@ -20,9 +20,9 @@ struct RunConfig {
   long every = 1;                        // write every K-th step (and the last)
   sparse::Backend backend = sparse::Backend::Auto;
   HitchMode hitch = HitchMode::Holonomic;
-  std::string restart = "auto";  // see set_restart (rattle.hpp): auto, 0 or K
-  double restart_tol = 0.0;      // RattleOptions::restart_tolerance (0: h^3)
-  int monitor_every = 8;         // RattleOptions::monitor_every
+  std::string restart = "auto";  // see set_restart (restart_options.hpp): auto, 0 or K
+  double restart_tol = 0.0;      // RestartOptions::tolerance (0: min(dt^3, 1e-3))
+  int monitor_every = 8;         // RestartOptions::monitor_every
   std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner
   bool project = false;  // reference methods: project onto the constraints after each step
   double tol = 1e-8;     // ARKODE methods: relative and absolute tolerance

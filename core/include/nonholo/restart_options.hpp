@@ -1,0 +1,57 @@
+#pragma once
+// What the integrators do about the period-2 mode (DESIGN.md section 8, README "Restarts"):
+// the multiplier lambda~ carries, besides its smooth part, a component that flips sign every
+// step and grows wherever the continuous motion is attracting; left alone it takes the energy
+// of p~ and ruins the trajectory while the post-momentum energy stays exact. A restart
+// replaces lambda~ by the continuous multiplier lambda_s(q, p~) and rescales p~ so that the
+// post-momentum energy (with f = 0; with forces, the discrete work-energy balance) is
+// unchanged, together with every momentum map of the model (restart.hpp).
+#include <string>
+
+namespace nonholo {
+
+//   Never     the paper's plain method (the amplitude is still measured and reported);
+//   Periodic  restart every RestartOptions::every steps;
+//   Auto      restart when the measured parasitic amplitude exceeds the tolerance.
+// (A Robert-Asselin-type filter, lambda~ moved a fraction towards lambda_s every step with the
+// same rescale, was measured against Auto and dropped: README, "The period-2 mode".)
+enum class RestartMode { Never, Periodic, Auto };
+const char* to_string(RestartMode mode);  // "never", "periodic", "auto"
+
+struct RestartOptions {
+  RestartMode mode = RestartMode::Auto;
+  int every = 0;  // Periodic: steps between restarts (>= 1)
+  // Auto: restart when the parasitic amplitude (h/2) |lambda~ - lambda_s|_C / |p~|_{M^-1}
+  // exceeds this; 0 means min(h^3, 1e-3) (h in the model's time unit: the mode's seed after a
+  // restart is O((h/tau)^3) for a motion on the time scale tau, so set it for models far from
+  // tau ~ 1; the cap keeps the mode's share of the energy, the amplitude squared, below 1e-6).
+  double tolerance = 0.0;
+  // Measure the amplitude at least every this many steps (0: never; Auto needs >= 1), in every
+  // mode: with Auto, at the next step while it is above the tolerance or after a restart, and
+  // otherwise after as many steps as its growth between the last two measurements allows (the
+  // mode can double per step where the motion attracts strongly). A measurement costs one bias
+  // evaluation, one solve with the factorisation the step already has and one mu^T product:
+  // about a step's worth on a small model, 40% of one on a long chain.
+  int monitor_every = 8;
+
+  // The tolerance Auto uses at step size h.
+  double tolerance_for(double h) const { return tolerance > 0.0 ? tolerance : (h < 0.1 ? h * h * h : 1e-3); }
+};
+
+// Throws std::invalid_argument naming the field and the offending value.
+void validate(const RestartOptions& options);
+// Sets mode (and every) from "auto", "0" or "never", or a whole number K >= 1 (every K steps).
+// Throws std::invalid_argument naming the accepted forms.
+void set_restart(RestartOptions& options, const std::string& spec);
+// The inverse: "auto", "0" or "K".
+std::string restart_spec(const RestartOptions& options);
+
+// A trajectory's measurement schedule (kept with its state): the step count of the next
+// measurement, and the last amplitude measured with its step count (0 after a restart).
+struct ModeWatch {
+  long next_step = 1;
+  long last_step = 0;
+  double last_amplitude = 0.0;
+};
+
+}  // namespace nonholo
