@@ -192,13 +192,12 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   model.mu_transpose_times(ws.mu_values.data(), lambda_const.data(), a.data());
   if (forced) a += applied;
   a *= -half;
-  if (maps) a += p - ws.map_rest;
-  Vector* b_store = &ws.map_linear;
   if (maps) {
+    a += p - ws.map_rest;
     model.mu_transpose_times(ws.mu_values.data(), ws.map_lambda1.data(), ws.map_linear.data());
     ws.map_linear = ws.map_rest - half * ws.map_linear;
   }
-  ConstVecRef b = maps ? ConstVecRef(*b_store) : ConstVecRef(p);
+  ConstVecRef b = maps ? ConstVecRef(ws.map_linear) : ConstVecRef(p);
   model.mu_transpose_times(ws.mu_values.data(), ws.lambda_s.data(), c.data());
   c *= -half;
 

@@ -26,8 +26,9 @@ Status parasitic_amplitude(const Model& model, Workspace& ws, const State& state
 // momentum map is unchanged (to the last bit when it reads coordinates no one-form touches).
 // Uses the factorisation of C(q) (factorises only when the workspace does not hold it) and
 // allocates nothing: one solve (two with an applied force), and with momentum maps n + 2
-// evaluations of each map (to find its direction) and 2 + (number of maps) more solves. On failure (Status::RestartFailed: no scale keeps the energy, or a
-// momentum map is not linear in p) the state is unchanged.
+// evaluations of each map (to find its direction) and 2 + (number of maps) more solves. On
+// failure (Status::RestartFailed: no scale keeps the energy, or a momentum map is not linear
+// in p) the state is unchanged.
 Status restart(const Model& model, Workspace& ws, State& state, const RattleOptions& options);
 
 }  // namespace nonholo
