@@ -2,6 +2,7 @@
 // and a clear message plus a non-zero exit for every kind of bad input.
 #include <nonholo/rattle.hpp>
 #include <nonholo/scenarios/command_line.hpp>
+#include <nonholo/scenarios/exact_solutions.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
@@ -289,6 +290,95 @@ TEST(CommandLine, FailureMessagesSayWhatWouldFixThem) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_THAT(r.err, HasSubstr("the step is too large for the position iteration: reduce the step size (h = 0.1)"));
   EXPECT_EQ(run({"run", "sleigh_chain", "--set", "omega0=20", "--dt", "0.01"}).code, 0);
+}
+
+// --order 4 and 6: the summary names the order and the composition, counts factorisations
+// (2 s per composed step, plus the start), drops the post-momentum energy (not defined for a
+// composed step) and, with forces, the energy balance (no discrete identity); the energy of
+// p~ is exact without forces. Wrong combinations are refused with the option's name.
+TEST(CommandLine, OrdersFourAndSixAreReportedAndChecked) {
+  Result r = run({"run", "sleigh", "--order", "6", "--dt", "0.1", "--t-end", "10"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto kv = parse_summary(r.out);
+  EXPECT_EQ(kv.at("order"), "6");
+  EXPECT_EQ(kv.at("composition"), "kahan-li9");
+  EXPECT_EQ(kv.at("factorizations"), std::to_string(100 * 18 + 1));
+  EXPECT_EQ(kv.at("restarts"), "100");
+  EXPECT_EQ(kv.at("energy_post_rel_err_max"), "nan");
+  EXPECT_LE(std::stod(kv.at("energy_rel_err_max")), 1e-14);
+  kv = parse_summary(run({"run", "sleigh", "--order", "4", "--composition", "triple-jump", "--t-end", "1"}).out);
+  EXPECT_EQ(kv.at("composition"), "triple-jump");
+  EXPECT_EQ(kv.at("factorizations"), std::to_string(100 * 6 + 1));
+  kv = parse_summary(run({"run", "sleigh", "--t-end", "1"}).out);
+  EXPECT_EQ(kv.at("order"), "2");
+  EXPECT_EQ(kv.count("composition"), 0u);
+  EXPECT_EQ(kv.at("factorizations"), "101");
+  kv = parse_summary(run({"run", "sleigh", "--method", "rk4", "--t-end", "1"}).out);
+  EXPECT_EQ(kv.count("order"), 0u);
+  EXPECT_EQ(kv.at("factorizations"), "400") << "one per evaluation of the equations";
+  r = run({"run", "wheeled_train", "--set", "bodies=4", "--order", "4", "--t-end", "1", "--hitch", "oneform"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  kv = parse_summary(r.out);
+  EXPECT_EQ(kv.at("energy_rel_err_max"), "nan");
+  EXPECT_EQ(kv.count("energy_balance_err_max"), 0u);
+  EXPECT_LE(std::stod(kv.at("residual_max")), 1e-14);
+  // A batch with composed steps, and an estimate per trajectory.
+  const std::string path = temp_path("batch_order.csv");
+  r = run({"batch", "sleigh", "--count", "3", "--order", "4", "--t-end", "1", "--error-estimate",
+           "--vary", "a=0.1:0.3", "--out", path});
+  ASSERT_EQ(r.code, 0) << r.err;
+  kv = parse_summary(r.out);
+  EXPECT_EQ(kv.at("order"), "4");
+  EXPECT_EQ(kv.at("factorizations"), std::to_string(3 * (100 * 10 + 1)));
+  EXPECT_LT(std::stod(kv.at("error_estimate")), 1e-9);
+  std::ifstream in(path);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_THAT(header, HasSubstr(",error_estimate,status"));
+  std::remove(path.c_str());
+
+  expect_failure({"run", "sleigh", "--order", "3"}, "--order/--composition: order = 3 must be 2, 4 or 6");
+  expect_failure({"run", "sleigh", "--order", "4", "--composition", "yoshida7"}, "yoshida7 is not of order 4");
+  expect_failure({"run", "sleigh", "--composition", "rk"}, "unknown composition 'rk'");
+  expect_failure({"run", "sleigh", "--method", "rk4", "--order", "4"}, "--order applies to the reflection method only");
+  expect_failure({"run", "sleigh_contact", "--order", "4"}, "needs a constant metric");
+}
+
+// --error-estimate against the true error: the run's CSV compared with the exact sleigh at
+// every output time, for every method. A fixed-step estimate (Richardson-scaled) must be
+// within 10% of the truth; ARKODE's (from tol/100) within a factor 3.
+TEST(CommandLine, ErrorEstimateIsCloseToTheTrueError) {
+  const scenarios::SleighExact exact(1.0, 1.0, 0.2, 1.0, 1.0, 0.0, 0.0, 0.0);
+  const std::string path = temp_path("estimate.csv");
+  const std::vector<std::vector<std::string>> cases{
+      {"--order", "2", "--dt", "0.1"},         {"--order", "4", "--dt", "0.1"},
+      {"--order", "6", "--dt", "0.2"},         {"--method", "rk4", "--dt", "0.1"},
+      {"--method", "dla-midpoint", "--dt", "0.1"}, {"--method", "arkode-verner", "--dt", "1", "--tol", "1e-8"}};
+  for (const auto& c : cases) {
+    std::vector<std::string> args{"run", "sleigh", "--t-end", "10", "--error-estimate", "--out", path};
+    args.insert(args.end(), c.begin(), c.end());
+    const Result r = run(args);
+    ASSERT_EQ(r.code, 0) << r.err;
+    const double estimate = std::stod(parse_summary(r.out).at("error_estimate"));
+    std::ifstream in(path);
+    std::string line;
+    std::getline(in, line);
+    double truth = 0.0;
+    while (std::getline(in, line)) {
+      std::istringstream row(line);
+      double t, x, y, theta;
+      char comma;
+      row >> t >> comma >> x >> comma >> y >> comma >> theta;
+      truth = std::max(truth, (Eigen::Vector3d(x, y, theta) - exact.configuration(t)).lpNorm<Eigen::Infinity>());
+    }
+    std::cout << "[estimate] " << c[1] << " " << c[3] << ": estimate " << estimate << ", true error " << truth
+              << ", ratio " << estimate / truth << "\n";
+    const bool adaptive = c[1] == "arkode-verner";
+    EXPECT_GE(estimate / truth, adaptive ? 0.33 : 0.9) << r.out;
+    EXPECT_LE(estimate / truth, adaptive ? 3.0 : 1.1) << r.out;
+  }
+  std::remove(path.c_str());
+  EXPECT_EQ(parse_summary(run({"run", "sleigh", "--t-end", "1"}).out).count("error_estimate"), 0u);
 }
 
 TEST(CommandLine, FailedStepStopsTheRunKeepsTheCsvAndExitsWithTwo) {

@@ -80,10 +80,13 @@ TEST(NoAllocation, ScenesOnEveryBackend) {
             sparse::resolve_backend(Backend::Auto, setup.model.gram().pattern()) != Backend::BlockDiagonal)
           continue;  // C is coupled: the block-diagonal path refuses it (tested in test_backends)
         ++served;
-        for (const char* restart : {"auto", "7", "0", "every step"}) {
+        for (const char* restart : {"auto", "7", "0", "every step", "order 4", "order 6", "order 6, 3"}) {
           RattleOptions options;
           options.hitch = hitch;
-          if (std::string(restart) == "every step") {
+          if (std::string(restart).rfind("order", 0) == 0) {  // composed steps (composition.hpp)
+            options.order = restart[6] - '0';
+            set_restart(options.restart, std::string(restart).size() > 7 ? "3" : "auto");
+          } else if (std::string(restart) == "every step") {
             options.restart.tolerance = 1e-300;  // auto, measuring and restarting at every step
             options.restart.monitor_every = 1;
           } else {

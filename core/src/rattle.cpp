@@ -19,6 +19,7 @@
 #include <stdexcept>
 
 #include "option_checks.hpp"
+#include "rattle_internal.hpp"
 #include "restart_internal.hpp"
 
 namespace nonholo {
@@ -41,6 +42,7 @@ void validate(const RattleOptions& options) {
   if (options.max_gap_iterations < 1)
     detail::reject("max_gap_iterations", options.max_gap_iterations, "must be at least 1");
   validate(options.restart);
+  composition_scheme(options.order, options.composition);  // throws for a bad pair
 }
 
 namespace {
@@ -49,16 +51,16 @@ namespace {
 // carries a visible share of the momentum (it makes the multiplier, hence the first half
 // kick, swing from step to step), round-off when the gap is already near the tolerance,
 // otherwise a step too large for the Newton iteration frozen at q_k.
-Status gap_failure(const Model& model, Workspace& ws, const State& s, const RattleOptions& o, double worst,
-                   int iterations, double tolerance) {
+Status gap_failure(const Model& model, Workspace& ws, const State& s, const RattleOptions& o, double h,
+                   double worst, int iterations, double tolerance) {
   double mode = 0.0;  // measured at the step's start, where C(q_k) is factorised
-  if (parasitic_amplitude(model, ws, s, o.h, mode, 0.0) == Status::Ok && mode >= 1e-2) {
+  if (parasitic_amplitude(model, ws, s, std::abs(h), mode, 0.0) == Status::Ok && mode >= 1e-2) {
     if (o.restart.mode == RestartMode::Auto)
       return ws.fail(Status::GapNotConverged,
                      "hitch gap %.3g after %d corrections (tolerance %.3g) from t = %.17g: the period-2 "
                      "mode carries %.2g of the momentum: restart more often (lower restart_tolerance, "
                      "monitor_every = 1) or reduce the step size (h = %g)",
-                     worst, iterations, tolerance, s.t, mode, o.h);
+                     worst, iterations, tolerance, s.t, mode, std::abs(h));
     return ws.fail(Status::GapNotConverged,
                    "hitch gap %.3g after %d corrections (tolerance %.3g) from t = %.17g: the period-2 "
                    "mode carries %.2g of the momentum: turn on multiplier restarts (--restart auto, "
@@ -73,7 +75,7 @@ Status gap_failure(const Model& model, Workspace& ws, const State& s, const Ratt
   return ws.fail(Status::GapNotConverged,
                  "hitch gap %.3g after %d corrections (tolerance %.3g) from t = %.17g: the step is too "
                  "large for the position iteration: reduce the step size (h = %g)",
-                 worst, iterations, tolerance, s.t, o.h);
+                 worst, iterations, tolerance, s.t, std::abs(h));
 }
 
 // Holonomic mode. On entry ws.p_half and ws.q_next are the plain first half kick and drift;
@@ -82,8 +84,7 @@ Status gap_failure(const Model& model, Workspace& ws, const State& s, const Ratt
 // q_next by (h^2/2) M^-1 mu_k^T dlambda: mu_k of that move is -g on the hitch rows (Newton
 // with the Jacobian frozen at q_k, converging at a rate O(h |thetadot|)) and 0 on the other
 // rows, so mu_k (q_{k+1} - q_{k-1}) = 0 still holds for them.
-Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const RattleOptions& o) {
-  const double h = o.h;
+Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const RattleOptions& o, double h) {
   Status status = ws.factorize_at(s.q, o.min_pivot_ratio);
   if (status != Status::Ok) return status;
   const auto& rows = model.holonomic_rows();
@@ -100,7 +101,7 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
       ws.gap_iterations = it;
       return Status::Ok;
     }
-    if (it == o.max_gap_iterations) return gap_failure(model, ws, s, o, worst, it, tolerance);
+    if (it == o.max_gap_iterations) return gap_failure(model, ws, s, o, h, worst, it, tolerance);
     ws.rhs.setZero();
     for (int j = 0; j < count; ++j) ws.rhs[rows[j]] = (-2.0 / (h * h)) * ws.gap[j];
     if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
@@ -168,35 +169,22 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
 
 }  // namespace
 
-Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& options) {
+namespace detail {
+
+Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h, double t_next,
+               ModeWatch* watch) {
   const int n = model.num_coordinates(), m = model.num_one_forms();
-  if (&ws.model() != &model)
-    return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
-  const double h = options.h;
-  if (!(h > 0.0) || !std::isfinite(h))
-    return ws.fail(Status::InvalidStepSize, "step size h = %g must be positive and finite", h);
-  if (s.q.size() != n || s.p.size() != n || s.force.size() != n || s.lambda.size() != m)
-    return ws.fail(Status::SizeMismatch,
-                   "state sizes q %ld, p %ld, force %ld, lambda %ld; the model needs %d, %d, %d, %d: "
-                   "create the state for this model (start_from_velocity)",
-                   static_cast<long>(s.q.size()), static_cast<long>(s.p.size()),
-                   static_cast<long>(s.force.size()), static_cast<long>(s.lambda.size()), n, n, n, m);
-  if (model.has_configuration_metric())
-    return ws.fail(Status::MethodNotApplicable,
-                   "the explicit step needs a constant metric; use implicit_step (implicit.hpp)");
   const double half = 0.5 * h;
-  const double t_next = s.t + h;
   const auto& minv = model.inverse_mass();
 
   // Half kick with the forces at t_k, then drift.
   kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
   ws.gap_iterations = 0;
   if (options.hitch == HitchMode::Holonomic && model.num_holonomic() > 0) {
-    const Status status = enforce_gaps(model, ws, s, options);
+    const Status status = enforce_gaps(model, ws, s, options, h);
     if (status != Status::Ok) return status;
     minv.multiply(ws.p_half.data(), ws.velocity.data());
   }
-
   // Unconstrained half kick with the applied force at t_{k+1}.
   if (model.has_applied_force()) {
     model.applied_force(t_next, ws.q_next, ws.applied, ws.scratch_n);
@@ -244,16 +232,14 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
     return ws.fail(Status::NonFiniteState,
                    "the step from t = %.17g produced NaN or Inf: reduce the step size (h = %g) or "
                    "check the model's forces",
-                   s.t, h);
+                   s.t, std::abs(h));
 
   // The period-2 mode at t_{k+1} (restart.hpp): measure, then restart as asked.
-  ModeWatch watch = s.watch;
-  if (m > 0) {
-    const Status status = control_mode(model, ws, s, options.restart, h, watch);
+  ws.parasitic = m > 0 ? std::numeric_limits<double>::quiet_NaN() : 0.0;
+  ws.restarted = false;
+  if (m > 0 && watch) {
+    const Status status = control_mode(model, ws, s, options.restart, h, *watch);
     if (status != Status::Ok) return status;
-  } else {
-    ws.parasitic = 0.0;
-    ws.restarted = false;
   }
 
   s.t = t_next;
@@ -262,6 +248,32 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
   s.p.swap(ws.p_next);
   s.lambda.swap(ws.lambda);
   s.force.swap(ws.force_next);
+  return Status::Ok;
+}
+
+}  // namespace detail
+
+Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& options) {
+  const int n = model.num_coordinates(), m = model.num_one_forms();
+  if (&ws.model() != &model)
+    return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
+  const double h = options.h;
+  if (!(h > 0.0) || !std::isfinite(h))
+    return ws.fail(Status::InvalidStepSize, "step size h = %g must be positive and finite", h);
+  if (s.q.size() != n || s.p.size() != n || s.force.size() != n || s.lambda.size() != m)
+    return ws.fail(Status::SizeMismatch,
+                   "state sizes q %ld, p %ld, force %ld, lambda %ld; the model needs %d, %d, %d, %d: "
+                   "create the state for this model (start_from_velocity)",
+                   static_cast<long>(s.q.size()), static_cast<long>(s.p.size()),
+                   static_cast<long>(s.force.size()), static_cast<long>(s.lambda.size()), n, n, n, m);
+  if (model.has_configuration_metric())
+    return ws.fail(Status::MethodNotApplicable,
+                   "the explicit step needs a constant metric; use implicit_step (implicit.hpp)");
+  if (options.order != 2 || options.composition != Composition::Auto) return detail::composed_step(model, ws, s, options);
+
+  ModeWatch watch = s.watch;
+  const Status status = detail::advance(model, ws, s, options, h, s.t + h, &watch);
+  if (status != Status::Ok) return status;
   ++s.steps;
   if (ws.restarted) ++s.restarts;
   s.watch = watch;

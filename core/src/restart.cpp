@@ -81,6 +81,35 @@ Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, Con
   return Status::Ok;
 }
 
+// p = p_J + p_r with p_J = M v_J what the momentum maps see: v_J = sum_j xi_j (xi_j^T p) over
+// the M-orthonormal directions of momentum_directions; leaves v_J in ws.scratch_n and p_r in
+// ws.map_rest. p_J and p_r are M^-1-orthogonal, and J_j(q, p_J + s p_r) = J_j(q, p) for all s.
+Status split_by_maps(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p) {
+  const Status status = momentum_directions(model, ws, q, p);
+  if (status != Status::Ok) return status;
+  const Eigen::MatrixXd& xi = ws.map_directions;
+  ws.scratch_n.setZero();
+  for (Eigen::Index j = 0; j < xi.cols(); ++j) ws.scratch_n += xi.col(j).dot(p) * xi.col(j);
+  model.mass().multiply(ws.scratch_n.data(), ws.map_rest.data());
+  ws.map_rest = p - ws.map_rest;
+  return Status::Ok;
+}
+
+// Checks that the new momentum leaves every map at the value split_by_maps recorded.
+Status maps_unchanged(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p_new) {
+  const auto& list = model.momentum_maps();
+  const int r = static_cast<int>(list.size());
+  for (int j = 0; j < r; ++j) {
+    const double after = list[j].map(q, p_new);
+    if (!(std::abs(after - ws.map_values[j]) <= 64.0 * kEps * ws.map_values[r + j]))
+      return ws.fail(Status::RestartFailed,
+                     "momentum map '%s' would change from %.17g to %.17g: a momentum map must be "
+                     "linear in p (J = <p, xi_Q(q)>); restart with RestartMode::Never or fix the map",
+                     list[j].name.c_str(), ws.map_values[j], after);
+  }
+  return Status::Ok;
+}
+
 }  // namespace
 
 bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, long now, double a) {
@@ -166,13 +195,7 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   Vector& c = ws.p_half;
   Vector& lambda_const = ws.scratch_m;  // lambda_F + lambda_0 (- dlambda/2)
   if (maps) {
-    if ((status = momentum_directions(model, ws, q, p)) != Status::Ok) return status;
-    const Eigen::MatrixXd& xi = ws.map_directions;
-    // v_J = sum_j xi_j (xi_j^T M v) = sum_j xi_j (xi_j^T p~); p~_r = p~ - M v_J.
-    ws.scratch_n.setZero();
-    for (Eigen::Index j = 0; j < xi.cols(); ++j) ws.scratch_n += xi.col(j).dot(p) * xi.col(j);
-    model.mass().multiply(ws.scratch_n.data(), ws.map_rest.data());
-    ws.map_rest = p - ws.map_rest;
+    if ((status = split_by_maps(model, ws, q, p)) != Status::Ok) return status;
     // Polarisation of the bias: B(v_J + s v_r) = B(v_J) + s B_1 + s^2 B_2 from s = 0, 1, -1.
     if ((status = one_form_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
     if ((status = solve_negated(ws, ws.rhs, ws.map_lambda0.data())) != Status::Ok) return status;
@@ -211,16 +234,7 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   // The new momentum; with momentum maps, checked before anything is written.
   if (maps) {
     ws.map_linear = p + (s - 1.0) * ws.map_rest;
-    const auto& list = model.momentum_maps();
-    const int r = static_cast<int>(list.size());
-    for (int j = 0; j < r; ++j) {
-      const double after = list[j].map(q, ws.map_linear);
-      if (!(std::abs(after - ws.map_values[j]) <= 64.0 * kEps * ws.map_values[r + j]))
-        return ws.fail(Status::RestartFailed,
-                       "momentum map '%s' would change from %.17g to %.17g: a momentum map must be "
-                       "linear in p (J = <p, xi_Q(q)>); restart with RestartMode::Never or fix the map",
-                       list[j].name.c_str(), ws.map_values[j], after);
-    }
+    if ((status = maps_unchanged(model, ws, q, ws.map_linear)) != Status::Ok) return status;
     p = ws.map_linear;
     lambda = lambda_const + s * ws.map_lambda1 + (s * s) * ws.lambda_s;
   } else {
@@ -229,6 +243,40 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   }
   model.mu_transpose_times(ws.mu_values.data(), lambda.data(), force.data());
   if (forced) force += applied;
+  return Status::Ok;
+}
+
+
+Status project_energy(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, double target) {
+  const bool maps = !model.momentum_maps().empty() && model.num_one_forms() > 0;
+  Status status = Status::Ok;
+  double kept = 0.0, scaled = 0.0;  // kinetic energies of p_J and p_r
+  if (maps) {
+    if ((status = split_by_maps(model, ws, q, p)) != Status::Ok) return status;
+    ws.map_linear = p - ws.map_rest;  // p_J; scratch_n holds v_J = M^-1 p_J
+    kept = 0.5 * ws.map_linear.dot(ws.scratch_n);
+    scaled = 0.5 * inverse_mass_dot(model, ws.map_rest, ws.map_rest, ws.scratch_n2);
+  } else {
+    scaled = 0.5 * inverse_mass_dot(model, p, p, ws.scratch_n2);
+  }
+  const double potential = model.potential(q);
+  const double want = target - potential - kept;
+  const double tiny = 8.0 * kEps * (std::abs(target) + std::abs(potential) + kept + scaled);
+  if (std::abs(want - scaled) <= tiny) return Status::Ok;
+  if (!(want > 0.0) || !(scaled > 0.0) || !std::isfinite(want / scaled))
+    return ws.fail(Status::RestartFailed,
+                   "the energy of p~ cannot be brought back to %.17g (potential %.17g, kinetic energy %.17g "
+                   "of which the momentum maps keep %.17g): the composed step is too large for this "
+                   "motion: reduce the step size, or turn the restarts off (RestartMode::Never)",
+                   target, potential, kept + scaled, kept);
+  const double s = std::sqrt(want / scaled);
+  if (maps) {
+    ws.map_linear = p + (s - 1.0) * ws.map_rest;
+    if ((status = maps_unchanged(model, ws, q, ws.map_linear)) != Status::Ok) return status;
+    p = ws.map_linear;
+  } else {
+    p *= s;
+  }
   return Status::Ok;
 }
 

@@ -35,6 +35,11 @@ double parasitic_of(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRe
 Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, VecRef lambda,
                         VecRef force, ConstVecRef applied, double h, bool gap_offset);
 
+// The composed step's energy projection: p <- p_J + s p_r (p_J: what the momentum maps see,
+// kept; p_r: the rest) with s > 0 such that (1/2) p^T M^-1 p + V(q) = target. Needs mu(q)
+// and C(q) in the workspace only with momentum maps. On failure (no such s) p is unchanged.
+Status project_energy(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, double target);
+
 // --- the measurement schedule, shared by the explicit and the implicit step ----------------
 // Whether the step that arrives at step count `now` measures the amplitude, or restarts
 // periodically.

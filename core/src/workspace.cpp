@@ -28,6 +28,12 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
     map_lambda1.setZero(m);
     map_values.setZero(maps);
   }
+  if (options.composed_steps) {
+    saved_q.setZero(n);
+    saved_p.setZero(n);
+    saved_force.setZero(n);
+    saved_lambda.setZero(m);
+  }
   if (m > 0) factor_ = sparse::make_factorization(options.backend, model.gram().pattern());
   // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
   if (factor_ && !factor_->values_in_place()) c_values.setZero(model.gram().pattern().nnz());
@@ -72,6 +78,7 @@ Status Workspace::factorize(double min_pivot_ratio) {
   if (!factor_) return Status::Ok;
   using sparse::FactorStatus;
   factor_valid_ = false;
+  ++factorizations;
   FactorStatus s;
   if (double* in_place = factor_->values_in_place()) {  // CHOLMOD: assemble into its own matrix
     model_->gram().assemble(mu_values.data(), in_place, factor_->slot_positions());

@@ -48,6 +48,14 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                   "--restart auto: restart when the parasitic amplitude exceeds this (default min(dt^3, 1e-3))");
   cmd->add_option("--monitor-every", o.config.monitor_every,
                   "measure the parasitic amplitude every K steps (default 8; 0: never, not with auto)");
+  cmd->add_option("--order", o.config.order,
+                  "reflection: 2 (default), or 4 and 6 by composing double steps; --dt is then the "
+                  "composed step (2 s plain steps: 10 for order 4, 18 for order 6)");
+  cmd->add_option("--composition", o.config.composition,
+                  "--order 4: suzuki5 (auto) or triple-jump; --order 6: kahan-li9 (auto) or yoshida7");
+  cmd->add_flag("--error-estimate", o.config.error_estimate,
+                "integrate a companion at dt/2 (ARKODE: tol/100) in the same run and report "
+                "error_estimate, the max difference in q over the output times (Richardson-scaled)");
 }
 
 // Checks that need to know which options were given; fills the enums.
@@ -56,7 +64,7 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   if (cmd->count("--dt") && !(run.dt > 0.0))
     throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
   if (run.method != "reflection") {
-    for (const char* option : {"--hitch", "--restart", "--restart-tol", "--monitor-every"})
+    for (const char* option : {"--hitch", "--restart", "--restart-tol", "--monitor-every", "--order", "--composition"})
       if (cmd->count(option)) throw std::invalid_argument(std::string(option) + " applies to the reflection method only");
   } else if (cmd->count("--tol")) {
     throw std::invalid_argument("--tol applies to the methods arkode-dp5 and arkode-verner");

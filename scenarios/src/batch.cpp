@@ -112,6 +112,10 @@ BatchResult run_batch(const BatchConfig& config) {
     if (agg.backend.empty() && !s.backend.empty()) {  // the first trajectory that was set up
       agg.hitch = s.hitch;
       agg.restart = s.restart;
+      agg.order = s.order;
+      agg.composition = s.composition;
+      agg.factorizations = s.factorizations >= 0 ? 0 : -1;
+      agg.error_estimate = config.run.error_estimate ? 0.0 : std::numeric_limits<double>::quiet_NaN();
       agg.bodies = s.bodies;
       agg.backend = s.backend;
       agg.restarts = s.restarts >= 0 ? 0 : -1;
@@ -139,6 +143,9 @@ BatchResult run_batch(const BatchConfig& config) {
     agg.gap_max = std::max(agg.gap_max, s.gap_max);
     agg.has_momentum = s.has_momentum;
     agg.momentum_drift_max = std::max(agg.momentum_drift_max, s.momentum_drift_max);
+    if (s.factorizations >= 0 && agg.factorizations >= 0) agg.factorizations += s.factorizations;
+    // NaN (a companion that failed) wins: the estimate is then unknown.
+    if (config.run.error_estimate && !(s.error_estimate <= agg.error_estimate)) agg.error_estimate = s.error_estimate;
     if (s.rhs_evaluations >= 0) agg.rhs_evaluations = std::max(0L, agg.rhs_evaluations) + s.rhs_evaluations;
   }
   agg.ns_per_step = agg.steps > 0 ? loop_ns / static_cast<double>(agg.steps) : 0.0;
@@ -158,6 +165,7 @@ BatchResult run_batch(const BatchConfig& config) {
     for (std::size_t c = 0; c < shown; ++c) out << "," << names[c];
     out << ",energy_rel_err_max,energy_post_rel_err_max,residual_max,gap_max,restarts,parasitic_max";
     if (agg.has_work) out << ",work,energy_balance_err_max";
+    if (config.run.error_estimate) out << ",error_estimate";
     out << ",status\n";
     for (std::size_t i = 0; i < rows.size(); ++i) {
       const Row& r = rows[i];
@@ -170,6 +178,7 @@ BatchResult run_batch(const BatchConfig& config) {
           << number(s.residual_max) << "," << number(s.gap_max) << "," << s.restarts << ","
           << number(s.parasitic_max);
       if (agg.has_work) out << "," << number(s.has_work ? s.work : NAN) << "," << number(s.energy_balance_err_max);
+      if (config.run.error_estimate) out << "," << number(s.error_estimate);
       out << "," << to_string(s.status) << "\n";
     }
     out.close();

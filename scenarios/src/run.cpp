@@ -123,6 +123,8 @@ std::string RunSummary::line() const {
   std::ostringstream os;
   os.precision(6);
   os << "scene=" << scene << " method=" << method << " hitch=" << hitch;
+  if (order > 0) os << " order=" << order;
+  if (!composition.empty()) os << " composition=" << composition;
   if (!restart.empty()) os << " restart=" << restart;
   os << " bodies=" << bodies << " steps=" << steps << " dt=" << dt << " t_end=" << t_final << " wall_s=" << wall_s
      << " ns_per_step=" << ns_per_step << " ns_per_body_step=" << ns_per_body_step
@@ -137,6 +139,8 @@ std::string RunSummary::line() const {
   if (restarts >= 0) os << " restarts=" << restarts << " parasitic_max=" << parasitic_max;
   if (has_momentum) os << " momentum_drift_max=" << momentum_drift_max;
   if (rhs_evaluations >= 0) os << " rhs_evals=" << rhs_evaluations;
+  if (factorizations >= 0) os << " factorizations=" << factorizations;
+  if (!std::isnan(error_estimate)) os << " error_estimate=" << error_estimate;
   os << " backend=" << backend << " status=" << to_string(status);
   return os.str();
 }
@@ -156,7 +160,16 @@ PreparedRun prepare_run(const RunConfig& config) {
   set_restart(r.choice.rattle.restart, config.restart);
   r.choice.rattle.restart.tolerance = config.restart_tol;
   r.choice.rattle.restart.monitor_every = config.monitor_every;
-  validate(r.choice.rattle);
+  r.choice.rattle.order = config.order;
+  r.choice.rattle.composition = composition_from_string(config.composition);
+  if (config.method != "reflection" && (config.order != 2 || r.choice.rattle.composition != Composition::Auto))
+    throw std::invalid_argument("--order and --composition apply to the reflection method only");
+  try {
+    validate(r.choice.rattle);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(config.order != 2 || config.composition != "auto" ? std::string("--order/--composition: ") + e.what()
+                                                                                 : std::string(e.what()));
+  }
   r.choice.reference.h = r.dt;
   r.choice.reference.tol = config.tol;
   r.choice.reference.project = config.project;
@@ -170,6 +183,7 @@ PreparedRun prepare_run(const RunConfig& config) {
   const double ratio = t_end / r.dt;
   if (ratio > 1e12) throw std::invalid_argument("t_end / dt is above 1e12 steps");
   r.steps = static_cast<long>(std::ceil(ratio * (1.0 - 1e-12)));
+  if (config.error_estimate) r.companion = companion_of(r.choice);
   return r;
 }
 
@@ -184,6 +198,10 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   SceneSetup setup = info.build(params);
   const Model& model = setup.model;
   std::unique_ptr<Runner> runner = make_runner(setup, choice);
+  std::unique_ptr<Runner> companion = config.error_estimate ? make_runner(setup, run.companion.choice) : nullptr;
+  double companion_s = 0.0;
+  double difference = 0.0;  // max over the output times of |q - q^|_inf
+  std::string companion_failure;
 
   std::unique_ptr<CsvWriter> csv;
   if (!config.csv_path.empty()) {
@@ -199,13 +217,17 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
                              : !reference_method(config.method) ? "oneform"
                              : config.project ? "projected" : "velocity";
   summary.restart = reflection ? restart_spec(choice.rattle.restart) : "";
+  summary.order = reflection ? choice.rattle.order : 0;
+  if (reflection && choice.rattle.order > 2)
+    summary.composition = to_string(composition_scheme(choice.rattle.order, choice.rattle.composition).composition);
   summary.restarts = runner->restarts();
   summary.parasitic_max = std::numeric_limits<double>::quiet_NaN();  // until measured
   // With external forces the energy is not an invariant: the reflection method's discrete
   // work-energy identity (DESIGN.md section 8) gives the balance instead. The other methods
   // have no such identity; their energy error is then not reported.
   const bool forced = model.has_external_force();
-  summary.has_work = forced && reflection;
+  // (A composed step has no discrete work-energy identity: its multipliers restart.)
+  summary.has_work = forced && reflection && choice.rattle.order == 2;
   const double power0 = summary.has_work ? runner->power() : 0.0;
   double power = power0;
   summary.bodies = model.num_bodies();
@@ -261,22 +283,49 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       runner->momentum_maps(j);
       summary.momentum_drift_max = worst(summary.momentum_drift_max, (j - j0).lpNorm<Eigen::Infinity>());
     }
-    if (csv && (k % config.every == 0 || k == steps)) {
+    const bool output = k % config.every == 0 || k == steps;
+    if (companion) {  // two steps of dt/2 (ARKODE: two output intervals) per step
+      const auto companion_start = Clock::now();
+      Status cs = companion->advance(t0 + (static_cast<double>(k) - 0.5) * dt);
+      if (cs == Status::Ok) cs = companion->advance(t0 + static_cast<double>(k) * dt);
+      if (cs != Status::Ok) {
+        difference = std::numeric_limits<double>::quiet_NaN();
+        companion_failure = "the companion trajectory of --error-estimate failed at t = " +
+                            std::to_string(companion->t()) + ": " + companion->message();
+        companion.reset();
+      } else if (output) {
+        difference = worst(difference, (runner->q() - companion->q()).lpNorm<Eigen::Infinity>());
+      }
+      companion_s += seconds_since(companion_start);
+    }
+    if (csv && output) {
       const auto out_start = Clock::now();
       csv->row(runner->t(), runner->q(), d);
       output_s += seconds_since(out_start);
     }
     if (progress && (k & 15) == 0) progress->update(k);  // it reads the clock: not every step
   }
-  const double loop_s = seconds_since(loop_start) - output_s;
+  const double loop_s = seconds_since(loop_start) - output_s - companion_s;
+  if (config.error_estimate) summary.error_estimate = run.companion.scale * difference;
   if (csv) csv->close();
   summary.t_final = runner->t();
   summary.rhs_evaluations = runner->rhs_evaluations();
+  summary.factorizations = runner->factorizations();
   if (summary.restarts >= 0) summary.restarts = runner->restarts();
   if (forced) summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();  // not an invariant
-  if (forced && !reflection) summary.energy_rel_err_max = std::numeric_limits<double>::quiet_NaN();
+  if (forced && !summary.has_work) summary.energy_rel_err_max = std::numeric_limits<double>::quiet_NaN();
   if (summary.status == Status::Ok && summary.parasitic_max > kParasiticWarning)
     summary.warning = parasitic_warning(summary, choice.rattle);
+  // ARKODE stops at every output time (--dt): one step per interval means that its error
+  // control wanted longer steps than --dt allowed, at the cost of evaluations.
+  const long internal = runner->internal_steps();
+  if (internal >= 0 && summary.steps >= 4 && internal <= summary.steps + summary.steps / 16)
+    summary.warning += (summary.warning.empty() ? "" : " ") +
+                       std::string("ARKODE took about one step per output interval (") + std::to_string(internal) +
+                       " steps for " + std::to_string(summary.steps) +
+                       " intervals): --dt, its output interval, probably capped its step; a larger --dt lets "
+                       "its error control choose longer steps (fewer evaluations at the same tolerance)";
+  if (!companion_failure.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + companion_failure;
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   if (final_q) *final_q = runner->q();

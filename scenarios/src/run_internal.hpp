@@ -11,6 +11,7 @@ namespace nonholo::scenarios {
 struct PreparedRun {
   SceneInfo info;  // a built-in scene or one read from a file
   MethodChoice choice;
+  Companion companion;  // --error-estimate
   double dt = 0.0;
   long steps = 0;
 };

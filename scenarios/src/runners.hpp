@@ -26,6 +26,10 @@ class Runner {
   virtual std::string message() const = 0;
   virtual std::string backend() const = 0;
   virtual long rhs_evaluations() const { return -1; }  // -1: not counted
+  // ARKODE: its own steps so far (-1 for the fixed-step methods).
+  virtual long internal_steps() const { return -1; }
+  // Numeric factorisations of C so far (-1: not counted, the dense implicit form).
+  virtual long factorizations() const { return -1; }
   // Reflection only: the parasitic amplitude measured by the last step (NaN if not measured)
   // and the restarts so far (-1 for the other methods).
   virtual double parasitic() const { return std::numeric_limits<double>::quiet_NaN(); }
@@ -41,8 +45,20 @@ struct MethodChoice {
   sparse::Backend backend = sparse::Backend::Auto;
 };
 
+// The companion trajectory of an error estimate (--error-estimate): the same method at h/2
+// (ARKODE: at tol/100), and the factor that turns the difference in q into an estimate of
+// the error of the method itself: 2^p / (2^p - 1) for a fixed-step method of order p, whose
+// error at h/2 is 2^-p of that at h; 1 for ARKODE, whose error falls about in proportion to
+// its tolerance.
+struct Companion {
+  MethodChoice choice;
+  double scale = 1.0;
+};
+Companion companion_of(const MethodChoice& choice);
+
 // Starts the method from the scene's consistent initial state (start_from_velocity).
-// Throws std::invalid_argument for an unknown method.
+// Throws std::invalid_argument for an unknown method, or order 4 or 6 with another method
+// than the explicit reflection step.
 std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& choice);
 
 }  // namespace nonholo::scenarios

@@ -1,6 +1,7 @@
 #pragma once
 // Everything needed to build a model and integrate it.
 #include <nonholo/batch.hpp>
+#include <nonholo/composition.hpp>
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/dynamics.hpp>
 #include <nonholo/model.hpp>

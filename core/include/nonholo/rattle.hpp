@@ -2,6 +2,7 @@
 // The reflection integrator of Ferraro, Iglesias and Martin de Diego for a constant metric:
 // the explicit nonholonomic RATTLE of DESIGN.md section 2, one factorisation of
 // C = mu M^-1 mu^T per step. With f = 0 it is exactly p_{k+1/2} = (P - Q)*_{q_k} p_{k-1/2}.
+#include <nonholo/composition.hpp>
 #include <nonholo/model.hpp>
 #include <nonholo/restart_options.hpp>
 #include <nonholo/state.hpp>
@@ -39,12 +40,23 @@ struct RattleOptions {
 
   // The period-2 mode: measured at the end of every few steps, restarted when needed.
   RestartOptions restart = {};
+
+  // 2: the plain step of size h. 4 or 6: one step advances by H = h through the composition
+  // of double steps (composition.hpp, DESIGN.md section 9): 2 s plain substeps, each with
+  // its own time for the forces. At the composed step's end, the parasitic amplitude is
+  // measured (monitor_every > 0); restart.mode Auto restarts lambda~ <- lambda_s at every
+  // composed step, Periodic every `every` composed steps, Never not at all (the symmetric
+  // composition on (q, p~, lambda~)). A restart without external forces first brings the
+  // energy of p~, (1/2) p~^T M^-1 p~ + V(q), back to State::target_energy by scaling the
+  // part of p~ no momentum map sees (constraints and momentum maps stay exact).
+  int order = 2;
+  Composition composition = Composition::Auto;
 };
 
 // Throws std::invalid_argument with the offending value.
 void validate(const RattleOptions& options);
 
-// One step t_k -> t_k + h, then (as options.restart asks) the measurement of the parasitic
+// One step t_k -> t_k + h (composed when options.order > 2), then (as options.restart asks) the measurement of the parasitic
 // amplitude and a restart at t_{k+1}. Never throws and never allocates. On failure the state
 // is left exactly as it was and ws.message() says why and what would help. On success the
 // state's vectors have been swapped with workspace buffers (see State), ws.parasitic holds the

@@ -8,6 +8,8 @@
 #include <nonholo/restart_options.hpp>
 #include <nonholo/types.hpp>
 
+#include <limits>
+
 namespace nonholo {
 
 struct State {
@@ -19,6 +21,10 @@ struct State {
   long steps = 0;     // steps taken since the start (schedules restarts and measurements)
   long restarts = 0;  // multiplier restarts since the start (RattleOptions::restart)
   ModeWatch watch;    // when the period-2 mode is measured next (restart_options.hpp)
+  // Composed steps (RattleOptions::order 4, 6) without external forces: the energy
+  // (1/2) p~^T M^-1 p~ + V(q) that every composed step restores. NaN until the first composed
+  // step sets it from the state; set it to NaN again after changing the state by hand.
+  double target_energy = std::numeric_limits<double>::quiet_NaN();
 
   // The post-momentum leaving t_k, p_{k+1/2} = p~_k + (h/2) force, and the one arriving,
   // p_{k-1/2} = p~_k - (h/2) force (both exact identities of the scheme).

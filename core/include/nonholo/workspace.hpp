@@ -13,6 +13,10 @@ namespace nonholo {
 
 struct WorkspaceOptions {
   sparse::Backend backend = sparse::Backend::Auto;
+  // Room to restore the state when a composed step (RattleOptions::order 4 or 6) fails in
+  // one of its substeps: four more state-sized vectors. Turn off for order-2-only use of a
+  // very large model; a composed step on such a workspace fails with MethodNotApplicable.
+  bool composed_steps = true;
 };
 
 // Cache-line aligned (and so padded): the workspaces of a batch's threads are written at every
@@ -75,6 +79,11 @@ class alignas(128) Workspace {
   // not measured) and whether it restarted the multipliers.
   double parasitic = 0.0;
   bool restarted = false;
+  // Composed steps: the state at the step's start, restored when a substep fails
+  // (WorkspaceOptions::composed_steps; empty otherwise).
+  Vector saved_q, saved_p, saved_lambda, saved_force;
+  // Numeric factorisations of C so far (the unit of cost the methods are compared in).
+  long factorizations = 0;
 
  private:
   const Model* model_;

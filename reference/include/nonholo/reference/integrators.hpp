@@ -36,8 +36,8 @@ class Integrator {
   Integrator& operator=(const Integrator&) = delete;
 
   // Integrates to exactly t (> t()). RK4 takes whole steps of h and a last shorter one if
-  // needed; ARKODE stops at t. On failure the state is that of the last good step and
-  // message() says why.
+  // needed; ARKODE stops at t, so its step never exceeds the interval between two calls. On
+  // failure the state is that of the last good step and message() says why.
   Status advance_to(double t);
 
   double t() const { return t_; }

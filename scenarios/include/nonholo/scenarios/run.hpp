@@ -6,6 +6,7 @@
 #include <nonholo/status.hpp>
 
 #include <iosfwd>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,11 @@ struct RunConfig {
   double restart_tol = 0.0;      // RestartOptions::tolerance (0: min(dt^3, 1e-3))
   int monitor_every = 8;         // RestartOptions::monitor_every
   std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner
+  int order = 2;                      // reflection: 2, or 4 and 6 by composition
+  std::string composition = "auto";   // see composition_from_string (composition.hpp)
+  // Integrate a companion trajectory at dt/2 (ARKODE: tol/100) in the same run and report
+  // error_estimate (README "Error estimate").
+  bool error_estimate = false;
   bool project = false;  // reference methods: project onto the constraints after each step
   double tol = 1e-8;     // ARKODE methods: relative and absolute tolerance
 };
@@ -34,6 +40,8 @@ struct RunSummary {
   std::string backend;
   std::string hitch;
   std::string restart;  // the restart policy in use (reflection), "" for the other methods
+  int order = 0;            // reflection: 2, 4 or 6 (0: the other methods)
+  std::string composition;  // reflection with order 4, 6: the composition's name
   int bodies = 0;
   Status status = Status::Ok;
   std::string message;  // why the run stopped early
@@ -58,6 +66,11 @@ struct RunSummary {
   double energy_balance_err_max = 0.0;
   std::string warning;  // what the user should know about a run that ended ok
   long rhs_evaluations = -1;  // reference methods: evaluations of the equations
+  long factorizations = -1;   // numeric factorisations of C (-1: not counted)
+  // With RunConfig::error_estimate: max over the output times of |q - q^|_inf against the
+  // companion trajectory q^, scaled by 2^p / (2^p - 1) for a fixed-step method of order p
+  // (Richardson), so that it estimates the error of q itself. NaN when not computed.
+  double error_estimate = std::numeric_limits<double>::quiet_NaN();
   bool has_momentum = false;
   double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|
 
