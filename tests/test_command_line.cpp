@@ -405,8 +405,8 @@ TEST(CommandLine, WorkPrecisionWritesItsTables) {
   const std::string dir = temp_path("wp");
   const Result r = run({"wp", "--quick", "--out", dir});
   ASSERT_EQ(r.code, 0) << r.err;
-  for (const char* name : {"work_precision.csv", "long_time.csv", "paper_particle_energy.csv",
-                           "paper_sleigh_error.csv", "paper_snakeboard_path.csv"}) {
+  for (const char* name : {"work_precision.csv", "long_time.csv", "equal_cost.csv", "error_estimate.csv",
+                           "paper_particle_energy.csv", "paper_sleigh_error.csv", "paper_snakeboard_path.csv"}) {
     std::ifstream in(dir + "/" + name);
     ASSERT_TRUE(in) << name;
     std::string header, row;
@@ -416,14 +416,17 @@ TEST(CommandLine, WorkPrecisionWritesItsTables) {
   std::ifstream in(dir + "/work_precision.csv");
   std::string line;
   std::getline(in, line);
-  EXPECT_EQ(line, "scene,method,project,h,tol,cpu_s,rhs_evals,steps,error,energy_err,energy_post_err,residual,status");
+  EXPECT_EQ(line,
+            "scene,method,project,h,tol,cpu_s,rhs_evals,factorizations,steps,error,energy_err,energy_post_err,residual,"
+            "status");
   int rows = 0, ok = 0;
   while (std::getline(in, line)) {
     ++rows;
     ok += line.size() > 3 && line.compare(line.size() - 3, 3, ",ok") == 0;
   }
-  // quick: 2 scenes x (4 methods x 2 steps + rk4+project x 2 + 3 ARKODE series x 1 tolerance).
-  EXPECT_EQ(rows, 2 * (8 + 2 + 3));
+  // quick: 2 scenes x (4 methods x 2 steps + rk4+project x 2 + orders 4 and 6 x 2 composed
+  // steps + 3 ARKODE series x 1 tolerance).
+  EXPECT_EQ(rows, 2 * (8 + 2 + 4 + 3));
   EXPECT_EQ(ok, rows);
   std::filesystem::remove_all(dir);
   expect_failure({"wp", "--out", "/proc/nonholo-cannot-write-here"}, "nonholo wp: cannot create");

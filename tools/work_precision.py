@@ -15,6 +15,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 STYLE = {  # series -> (label, marker, linestyle, colour): the same colour in every panel
     "reflection": ("reflection (ours, automatic restarts)", "o", "-", "C0"),
     "reflection+plain": ("reflection, plain (--restart 0)", "x", "-", "C9"),
+    "reflection-o4": ("reflection order 4 (Suzuki 5)", "o", "-.", "C8"),
+    "reflection-o6": ("reflection order 6 (Kahan-Li 9)", "*", "-", "k"),
     "dla-midpoint": ("DLA midpoint", "s", "-", "C1"),
     "dla-left": ("DLA left point", "v", "-", "C2"),
     "rk4": ("RK4", "^", "--", "C3"),

@@ -36,6 +36,7 @@ struct Trajectory {
   std::vector<Sample> samples;  // at t0 and every sample_dt
   double cpu_s = 0.0;
   long rhs = -1;
+  long factorizations = -1;
   long steps = 0;
   long restarts = -1;  // reflection: multiplier restarts
   Status status = Status::Ok;
@@ -48,6 +49,8 @@ Trajectory integrate(const SceneSetup& setup, const MethodChoice& choice, double
   auto runner = make_runner(setup, choice);
   const double dt = choice.method.rfind("arkode", 0) == 0 ? sample_dt : choice.rattle.h;
   const long steps = std::lround(t_end / dt), every = std::max(1L, std::lround(sample_dt / dt));
+  if (std::abs(static_cast<double>(every) * dt - sample_dt) > 1e-9 * sample_dt)
+    throw std::logic_error("work-precision: the step " + std::to_string(dt) + " does not divide the sample interval");
   const double t0 = runner->t();
   out.samples.push_back({runner->t(), runner->q(), runner->diagnostics()});
   double sampling = 0.0;
@@ -67,6 +70,7 @@ Trajectory integrate(const SceneSetup& setup, const MethodChoice& choice, double
   }
   out.cpu_s = cpu_seconds() - start - sampling;
   out.rhs = runner->rhs_evaluations();
+  out.factorizations = runner->factorizations();
   out.restarts = runner->restarts();
   return out;
 }
@@ -89,8 +93,9 @@ struct Case {
 };
 
 // The oracle's configuration at the sample times: the exact solution where DESIGN.md
-// section 6 gives one, otherwise ARKODE (Verner 6(5)) at tolerance 1e-12.
-std::vector<Vector> oracle(const Case& c, const SceneSetup& setup, double t_end, double sample_dt) {
+// section 6 gives one, otherwise ARKODE (Verner 6(5)) at tolerance `tol`.
+std::vector<Vector> oracle(const Case& c, const SceneSetup& setup, double t_end, double sample_dt,
+                           double tol = 1e-12) {
   std::vector<Vector> out;
   const long n = std::lround(t_end / sample_dt);
   if (c.scene == "sleigh" && c.sets.empty()) {
@@ -109,7 +114,7 @@ std::vector<Vector> oracle(const Case& c, const SceneSetup& setup, double t_end,
   }
   MethodChoice reference;
   reference.method = "arkode-verner";
-  reference.reference.tol = 1e-12;
+  reference.reference.tol = tol;
   const Trajectory t = integrate(setup, reference, t_end, sample_dt);
   if (t.status != Status::Ok) throw std::runtime_error("oracle failed for " + c.label + ": " + t.message);
   for (const auto& s : t.samples) out.push_back(s.q);
@@ -127,7 +132,32 @@ struct MethodPoint {
   std::string method;
   bool project;
   double h, tol;
+  int order = 2;  // reflection: 4 and 6 compose double steps (h is the composed step)
 };
+
+// The method's name in the CSV files: reflection-o4 and -o6 for the composed orders.
+std::string label_of(const std::string& method, int order) {
+  return order > 2 ? method + "-o" + std::to_string(order) : method;
+}
+
+MethodChoice choice_of(const MethodPoint& pt) {
+  MethodChoice choice;
+  choice.method = pt.method;
+  choice.rattle.h = pt.h > 0.0 ? pt.h : 0.01;
+  choice.rattle.order = pt.order;
+  choice.reference.h = choice.rattle.h;
+  choice.reference.tol = pt.tol > 0.0 ? pt.tol : 1e-8;
+  choice.reference.project = pt.project;
+  return choice;
+}
+
+// max_k |q_k - truth_k| over the samples both have.
+double max_error(const Trajectory& tr, const std::vector<Vector>& truth) {
+  double error = 0.0;
+  for (std::size_t k = 0; k < tr.samples.size() && k < truth.size(); ++k)
+    error = std::max(error, (tr.samples[k].q - truth[k]).lpNorm<Eigen::Infinity>());
+  return tr.status == Status::Ok ? error : std::numeric_limits<double>::quiet_NaN();
+}
 
 void work_precision_table(const WorkPrecisionConfig& config, std::ostream& log) {
   const double t_end = 10.0, sample_dt = 0.5;
@@ -136,9 +166,11 @@ void work_precision_table(const WorkPrecisionConfig& config, std::ostream& log) 
                           {"snakeboard", {}, "snakeboard"},
                           {"sleigh_chain", {"bodies=100"}, "sleigh_chain_100"}};
   std::vector<double> steps{0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
+  std::vector<double> composed_steps{0.5, 0.25, 0.1, 0.05, 0.025, 0.01};
   std::vector<double> tols{1e-4, 1e-6, 1e-8, 1e-10, 1e-12};
   if (config.quick) {
     steps = {0.05, 0.02};
+    composed_steps = {0.25, 0.1};
     tols = {1e-6};
     cases.resize(2);
   }
@@ -146,38 +178,33 @@ void work_precision_table(const WorkPrecisionConfig& config, std::ostream& log) 
   for (const char* m : {"reflection", "dla-midpoint", "dla-left", "rk4"})
     for (double h : steps) points.push_back({m, false, h, 0.0});
   for (double h : steps) points.push_back({"rk4", true, h, 0.0});
+  for (int order : {4, 6})
+    for (double h : composed_steps) points.push_back({"reflection", false, h, 0.0, order});
   for (const char* m : {"arkode-dp5", "arkode-verner"})
     for (double tol : tols) points.push_back({m, false, 0.0, tol});
   for (double tol : tols) points.push_back({"arkode-dp5", true, 0.0, tol});
 
   auto csv = open(std::filesystem::path(config.directory) / "work_precision.csv");
-  csv << "scene,method,project,h,tol,cpu_s,rhs_evals,steps,error,energy_err,energy_post_err,residual,status\n";
+  csv << "scene,method,project,h,tol,cpu_s,rhs_evals,factorizations,steps,error,energy_err,energy_post_err,residual,"
+         "status\n";
   for (const Case& c : cases) {
     const SceneSetup setup = build(c.scene, c.sets);
     const auto truth = oracle(c, setup, t_end, sample_dt);
     for (const MethodPoint& pt : points) {
-      MethodChoice choice;
-      choice.method = pt.method;
-      choice.rattle.h = pt.h > 0.0 ? pt.h : 0.01;
-      choice.reference.h = choice.rattle.h;
-      choice.reference.tol = pt.tol > 0.0 ? pt.tol : 1e-8;
-      choice.reference.project = pt.project;
-      const Trajectory tr = integrate(setup, choice, t_end, sample_dt);
-      double error = 0.0, energy = 0.0, energy_post = 0.0, residual = 0.0;
+      const Trajectory tr = integrate(setup, choice_of(pt), t_end, sample_dt);
+      const double error = max_error(tr, truth);
+      double energy = 0.0, energy_post = 0.0, residual = 0.0;
       const Diagnostics& d0 = tr.samples.front().d;
-      for (std::size_t k = 0; k < tr.samples.size() && k < truth.size(); ++k) {
-        const Sample& s = tr.samples[k];
-        error = std::max(error, (s.q - truth[k]).lpNorm<Eigen::Infinity>());
+      for (const Sample& s : tr.samples) {
         energy = std::max(energy, relative(s.d.energy, d0.energy));
         energy_post = std::isnan(d0.energy_post) ? d0.energy_post
                                                  : std::max(energy_post, relative(s.d.energy_post, d0.energy_post));
         residual = std::max(residual, s.d.residual);
       }
-      if (tr.status != Status::Ok) error = std::numeric_limits<double>::quiet_NaN();
-      csv << c.label << "," << pt.method << "," << (pt.project ? 1 : 0) << "," << pt.h << "," << pt.tol << ","
-          << tr.cpu_s << "," << tr.rhs << "," << tr.steps << "," << error << "," << energy << "," << energy_post
+      csv << c.label << "," << label_of(pt.method, pt.order) << "," << (pt.project ? 1 : 0) << "," << pt.h << ","
+          << pt.tol << "," << tr.cpu_s << "," << tr.rhs << "," << tr.factorizations << "," << tr.steps << "," << error << "," << energy << "," << energy_post
           << "," << residual << "," << to_string(tr.status) << "\n";
-      log << "wp " << c.label << " " << pt.method << (pt.project ? "+project" : "") << " h=" << pt.h
+      log << "wp " << c.label << " " << label_of(pt.method, pt.order) << (pt.project ? "+project" : "") << " h=" << pt.h
           << " tol=" << pt.tol << ": error " << error << ", cpu " << tr.cpu_s << " s\n";
     }
   }
@@ -229,6 +256,83 @@ void long_time(const WorkPrecisionConfig& config, std::ostream& log) {
           << to_string(tr.status) << ", cpu " << tr.cpu_s << " s";
       if (tr.restarts >= 0) log << ", " << tr.restarts << " restarts";
       log << "\n";
+    }
+  }
+}
+
+// Long runs at equal cost (t = 1000): the sixth-order composition against RK4 at the same
+// number of factorisations per unit time and ARKODE Verner over a range of tolerances, on the
+// sleigh (exact solution) and a 10-body chain (ARKODE at 1e-13 as the oracle).
+void equal_cost(const WorkPrecisionConfig& config, std::ostream& log) {
+  auto csv = open(std::filesystem::path(config.directory) / "equal_cost.csv");
+  csv << "scene,method,h,tol,cpu_s,factorizations,error_final,error_max,energy_err_max,residual_max,status\n";
+  const double t_end = config.quick ? 20.0 : 1000.0, sample = config.quick ? 1.0 : 10.0;
+  // Per unit time: order 6 at H = 0.2 and order 4 at H = 0.1 take 90 and 100 factorisations,
+  // RK4 at h = 0.04 100, order 2 at h = 0.02 50.
+  const std::vector<MethodPoint> points{{"reflection", false, 0.2, 0.0, 6}, {"reflection", false, 0.1, 0.0, 4},
+                                        {"reflection", false, 0.02, 0.0, 2}, {"rk4", false, 0.04, 0.0},
+                                        {"arkode-verner", false, 0.0, 1e-9},   {"arkode-verner", false, 0.0, 1e-10},
+                                        {"arkode-verner", false, 0.0, 1e-11},  {"arkode-verner", false, 0.0, 1e-12}};
+  for (const Case& c : {Case{"sleigh", {}, "sleigh"}, Case{"sleigh_chain", {"bodies=10"}, "sleigh_chain_10"}}) {
+    const SceneSetup setup = build(c.scene, c.sets);
+    const std::vector<Vector> truth = oracle(c, setup, t_end, sample, 1e-13);
+    for (const MethodPoint& pt : points) {
+      const Trajectory tr = integrate(setup, choice_of(pt), t_end, sample);
+      const Diagnostics& d0 = tr.samples.front().d;
+      double energy = 0.0, residual = 0.0;
+      for (const Sample& smp : tr.samples) {
+        energy = std::max(energy, relative(smp.d.energy, d0.energy));
+        residual = std::max(residual, smp.d.residual);
+      }
+      const bool complete = tr.status == Status::Ok && tr.samples.size() == truth.size();
+      const double final_error = complete ? (tr.samples.back().q - truth.back()).lpNorm<Eigen::Infinity>()
+                                          : std::numeric_limits<double>::quiet_NaN();
+      const double error = max_error(tr, truth);
+      csv << c.label << "," << label_of(pt.method, pt.order) << "," << pt.h << "," << pt.tol << "," << tr.cpu_s << ","
+          << tr.factorizations << "," << final_error << "," << error << "," << energy << "," << residual << ","
+          << to_string(tr.status) << "\n";
+      log << "equal cost " << c.label << " " << label_of(pt.method, pt.order) << " h=" << pt.h << " tol=" << pt.tol
+          << ": error at t = " << t_end << " " << final_error << ", " << tr.factorizations << " factorisations, cpu "
+          << tr.cpu_s << " s\n";
+    }
+  }
+}
+
+// How close --error-estimate comes to the true error: the estimate (the companion at h/2,
+// Richardson-scaled, or ARKODE at tol/100) against the oracle, max over the samples.
+void error_estimates(const WorkPrecisionConfig& config, std::ostream& log) {
+  auto csv = open(std::filesystem::path(config.directory) / "error_estimate.csv");
+  csv << "scene,method,h,tol,error,estimate,ratio\n";
+  const double t_end = 10.0, sample_dt = 0.5;
+  std::vector<MethodPoint> points{{"reflection", false, 0.05, 0.0, 2}, {"reflection", false, 0.01, 0.0, 2},
+                                  {"reflection", false, 0.25, 0.0, 4}, {"reflection", false, 0.125, 0.0, 4},
+                                  {"reflection", false, 0.5, 0.0, 6},  {"reflection", false, 0.25, 0.0, 6},
+                                  {"dla-midpoint", false, 0.05, 0.0},  {"rk4", false, 0.05, 0.0},
+                                  {"rk4", false, 0.02, 0.0},           {"arkode-verner", false, 0.0, 1e-6},
+                                  {"arkode-verner", false, 0.0, 1e-8}, {"arkode-verner", false, 0.0, 1e-10}};
+  std::vector<Case> cases{{"sleigh", {}, "sleigh"}, {"particle", {}, "particle"},
+                          {"sleigh_chain", {"bodies=10"}, "sleigh_chain_10"}};
+  if (config.quick) {
+    points.resize(3);
+    cases.resize(1);
+  }
+  for (const Case& c : cases) {
+    const SceneSetup setup = build(c.scene, c.sets);
+    const auto truth = oracle(c, setup, t_end, sample_dt);
+    for (const MethodPoint& pt : points) {
+      const MethodChoice choice = choice_of(pt);
+      const Companion companion = companion_of(choice);
+      const Trajectory tr = integrate(setup, choice, t_end, sample_dt);
+      const Trajectory fine = integrate(setup, companion.choice, t_end, sample_dt);
+      std::vector<Vector> fine_q;
+      for (const Sample& smp : fine.samples) fine_q.push_back(smp.q);
+      const double error = max_error(tr, truth);
+      const double estimate = fine.status == Status::Ok ? companion.scale * max_error(tr, fine_q)
+                                                        : std::numeric_limits<double>::quiet_NaN();
+      csv << c.label << "," << label_of(pt.method, pt.order) << "," << pt.h << "," << pt.tol << "," << error << ","
+          << estimate << "," << estimate / error << "\n";
+      log << "estimate " << c.label << " " << label_of(pt.method, pt.order) << " h=" << pt.h << " tol=" << pt.tol
+          << ": error " << error << ", estimate " << estimate << "\n";
     }
   }
 }
@@ -295,6 +399,8 @@ void run_work_precision(const WorkPrecisionConfig& config, std::ostream& log) {
   if (ec) throw std::invalid_argument("cannot create '" + config.directory + "': " + ec.message());
   work_precision_table(config, log);
   long_time(config, log);
+  equal_cost(config, log);
+  error_estimates(config, log);
   paper(config, log);
 }
 
