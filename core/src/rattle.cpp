@@ -7,7 +7,8 @@
 // In holonomic mode the first half kick also gets (h/2) mu_k^T dlambda so that g(q_{k+1}) = 0
 // (DESIGN.md section 4); see enforce_gaps. Before the new state is committed, control_mode
 // measures the period-2 mode there and restarts the multipliers (DESIGN.md section 8,
-// restart.cpp) as RattleOptions::restart asks.
+// restart.cpp) as RattleOptions::restart asks. Orders 4 and 6 compose this step with signed
+// substeps (detail::advance): composition.cpp.
 #include <nonholo/rattle.hpp>
 
 #include <nonholo/dynamics.hpp>

@@ -19,6 +19,8 @@ struct Diagnostics {
 };
 
 // h is the step size in use. Allocation-free; reuses mu(q_k) when the workspace holds it.
+// After a composed step (RattleOptions::order 4, 6) energy_post means nothing: the composed
+// step has no post-momentum (its multipliers restart), and `nonholo run` reports it as NaN.
 Diagnostics diagnose(const Model& model, Workspace& ws, const State& state, double h);
 
 // (1/2) p^T M^-1 p. scratch: n entries.
