@@ -165,11 +165,11 @@ PreparedRun prepare_run(const RunConfig& config) {
   if (config.method != "reflection" && (config.order != 2 || r.choice.rattle.composition != Composition::Auto))
     throw std::invalid_argument("--order and --composition apply to the reflection method only");
   try {
-    validate(r.choice.rattle);
+    composition_scheme(config.order, r.choice.rattle.composition);
   } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(config.order != 2 || config.composition != "auto" ? std::string("--order/--composition: ") + e.what()
-                                                                                 : std::string(e.what()));
+    throw std::invalid_argument(std::string("--order/--composition: ") + e.what());
   }
+  validate(r.choice.rattle);
   r.choice.reference.h = r.dt;
   r.choice.reference.tol = config.tol;
   r.choice.reference.project = config.project;
