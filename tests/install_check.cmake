@@ -1,5 +1,7 @@
-# cmake -P script: install the current build to WORK_DIR/prefix, configure and build
-# examples/embed against it, and run it.
+# cmake -P script: install the current build to WORK_DIR/prefix, then configure, build and
+# run one consumer of each component against it: examples/embed (core, with SUNDIALS hidden,
+# plus README's "Using the library" program extracted from README.md), examples/embed_reference
+# and examples/embed_scenarios. CONSUMER_FLAGS: the build's compiler flags (sanitizers).
 file(REMOVE_RECURSE ${WORK_DIR})
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -9,7 +11,29 @@ function(run)
   message(STATUS "${out}")
 endfunction()
 run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix)
-run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/embed -B ${WORK_DIR}/build
-    -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release)
-run(${CMAKE_COMMAND} --build ${WORK_DIR}/build)
-run(${WORK_DIR}/build/embed)
+
+# README's program: the first ```cpp block after "## Using the library".
+file(READ ${SOURCE_DIR}/README.md readme)
+string(FIND "${readme}" "\n## Using the library\n" at)
+string(SUBSTRING "${readme}" ${at} -1 readme)
+if(at EQUAL -1 OR NOT readme MATCHES "```cpp\n(.*)")
+  message(FATAL_ERROR "README.md: no ```cpp block under \"## Using the library\"")
+endif()
+string(FIND "${CMAKE_MATCH_1}" "```" end)
+string(SUBSTRING "${CMAKE_MATCH_1}" 0 ${end} program)
+file(WRITE ${WORK_DIR}/readme_program.cpp "${program}")
+
+# consumer(NAME EXAMPLE_DIR [CMAKE_ARGS...]): configure, build, run the executable NAME.
+function(consumer name dir)
+  set(build ${WORK_DIR}/${name})
+  run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/${dir} -B ${build} -DCMAKE_BUILD_TYPE=Release
+      -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix "-DCMAKE_CXX_FLAGS=${CONSUMER_FLAGS}" ${ARGN})
+  run(${CMAKE_COMMAND} --build ${build})
+  run(${build}/${name})
+endfunction()
+# Core only: must configure although SUNDIALS cannot be found.
+consumer(embed embed -DCMAKE_DISABLE_FIND_PACKAGE_SUNDIALS=ON
+         -DNONHOLO_README_PROGRAM=${WORK_DIR}/readme_program.cpp)
+run(${WORK_DIR}/embed/readme_program)
+consumer(embed_reference embed_reference)
+consumer(embed_scenarios embed_scenarios)

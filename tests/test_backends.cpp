@@ -50,18 +50,39 @@ TEST(Structure, DiagonalBlocksAreTheConnectedComponents) {
 
 TEST(Structure, NaturalEnvelopeMeasuresBandedness) {
   // Tridiagonal: envelope = nnz. Arrow (row 0 coupled to all): rows reach back to column 0.
-  std::vector<std::pair<int, int>> tri, arrow;
+  std::vector<std::pair<int, int>> tri, arrow, arrow8;
   for (int i = 1; i < 10; ++i) {
     tri.push_back({i, i - 1});
     arrow.push_back({i, 0});
+    if (i < 8) arrow8.push_back({i, 0});
   }
   EXPECT_EQ(sparse::natural_envelope(pattern_of(10, tri)), 19);
   EXPECT_EQ(sparse::natural_envelope(pattern_of(10, arrow)), 10 + 45);
   EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(10, tri)), Backend::CholmodNatural);
   EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(10, arrow)), Backend::CholmodAmd);
-  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(8, arrow)), Backend::Dense);
+  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(8, arrow8)), Backend::Dense);
   EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(20, {})), Backend::BlockDiagonal);
   EXPECT_EQ(sparse::resolve_backend(Backend::CholmodAmd, pattern_of(20, {})), Backend::CholmodAmd);
+}
+
+TEST(Structure, MalformedPatternsAreRefused) {
+  using testing::expect_error;
+  // Row 9 of an 8 x 8 pattern: read past the end before the check existed.
+  const auto out_of_range = pattern_of(8, {{9, 0}});
+  expect_error([&] { sparse::natural_envelope(out_of_range); },
+               "column 0: row 9 is out of range (size 8, rows 0 to 7)");
+  expect_error([&] { sparse::find_diagonal_blocks(out_of_range); }, "row 9");
+  expect_error([&] { sparse::resolve_backend(Backend::CholmodAmd, out_of_range); }, "row 9");
+  expect_error([&] { sparse::natural_envelope(pattern_of(8, {{5, 0}, {5, 0}})); },
+               "column 0: rows must increase, row 5 follows 5");
+  auto no_diagonal = pattern_of(3, {});
+  no_diagonal.row_idx[1] = 2;
+  expect_error([&] { sparse::make_factorization(Backend::Auto, no_diagonal); },
+               "symmetric pattern: column 1 is empty or does not start with its diagonal (row 1)");
+  auto short_col_ptr = pattern_of(3, {});
+  short_col_ptr.col_ptr.pop_back();
+  expect_error([&] { sparse::natural_envelope(short_col_ptr); },
+               "col_ptr must hold size + 1 = 4 offsets from 0 to nnz = 3");
 }
 
 scenarios::SceneSetup scene(const std::string& name, const std::vector<std::string>& sets) {

@@ -440,3 +440,26 @@ TEST(CommandLine, HelpExitsWithZero) {
 
 }  // namespace
 }  // namespace nonholo
+
+// Issue 11: sizes the machine cannot hold are refused with the reason, before any work.
+namespace nonholo {
+namespace {
+
+TEST(CommandLine, RefusesSizesTheMachineCannotHold) {
+  const Result count = run({"batch", "sleigh", "--count", "1000000000000"});
+  EXPECT_EQ(count.code, 1);
+  EXPECT_THAT(count.err, HasSubstr("--count 1000000000000: the results table would need "));
+  EXPECT_THAT(count.err, HasSubstr(" bytes per trajectory); this machine has "));
+  const Result threads = run({"batch", "sleigh", "--count", "2", "--t-end", "0.01", "--threads", "5000"});
+  EXPECT_EQ(threads.code, 1);
+  EXPECT_THAT(threads.err, HasSubstr("--threads 5000: at most "));
+  const Result t_end = run({"run", "sleigh", "--t-end", "1e300"});
+  EXPECT_EQ(t_end.code, 1);
+  EXPECT_THAT(t_end.err, HasSubstr("t_end 1e+300 / dt 0.01 = 1e+302 steps, more than the 1e+12 a run may take"));
+  const Result dt = run({"run", "sleigh", "--dt", "1e-300"});
+  EXPECT_EQ(dt.code, 1);
+  EXPECT_THAT(dt.err, HasSubstr("t_end 10 / dt 1e-300 = 1e+301 steps"));
+}
+
+}  // namespace
+}  // namespace nonholo

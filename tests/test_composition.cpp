@@ -288,7 +288,7 @@ TEST(Composition, FailedStepLeavesTheStateAndSubstepsSeeTheirTimes) {
   EXPECT_EQ(step(model, lean, s, o), Status::MethodNotApplicable);
   EXPECT_THAT(lean.message(), ::testing::HasSubstr("composed_steps = true"));
   o.order = 3;
-  EXPECT_EQ(step(model, ws, s, o), Status::MethodNotApplicable);
+  EXPECT_EQ(step(model, ws, s, o), Status::InvalidOptions);
   EXPECT_THAT(ws.message(), ::testing::HasSubstr("order = 3 must be 2, 4 or 6"));
 }
 

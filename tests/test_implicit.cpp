@@ -204,7 +204,8 @@ TEST(Implicit, NewtonFailureLeavesTheStateUnchanged) {
   EXPECT_EQ(s.t, before.t);
   o.max_newton_iterations = 30;
   EXPECT_EQ(implicit_step(setup.model, ws, s, o), Status::Ok) << ws.message();
-  testing::expect_error([&] { ImplicitWorkspace w(scene("sleigh").model); }, "needs a model with a configuration metric");
+  const auto sleigh = scene("sleigh");
+  testing::expect_error([&] { ImplicitWorkspace w(sleigh.model); }, "needs a model with a configuration metric");
 }
 
 }  // namespace

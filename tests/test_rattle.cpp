@@ -9,8 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <cstring>
-
+#include "support/bitwise_equal.hpp"
 #include "support/dense_reference.hpp"
 #include "support/random_model.hpp"
 
@@ -22,9 +21,7 @@ using sparse::Backend;
 
 double rel(const Vector& a, const Vector& b) { return (a - b).norm() / std::max(1.0, b.norm()); }
 
-bool bitwise_equal(const Vector& a, const Vector& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * a.size()) == 0;
-}
+using testing::bitwise_equal;
 
 bool bitwise_equal(const State& a, const State& b) {
   return a.t == b.t && bitwise_equal(a.q, b.q) && bitwise_equal(a.p, b.p) &&

@@ -117,20 +117,22 @@ TEST(Start, BadInputIsReported) {
   expect([&] { start_from_velocity(model, ws, 0.0, nan_q, ok); }, "start: q0[1] (" + model.coordinate_names()[1] + ") is nan");
   expect([&] { start_from_velocity(model, ws, INFINITY, ok, ok); }, "initial time t0 = inf is not finite");
 
-  // One-forms that are dependent at q0.
+  // One-forms that are dependent at q0: std::invalid_argument (the documented set-up error),
+  // naming the row eliminated last by its label.
   ModelBuilder b;
   b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
-  b.add_one_form({0, 1});
-  b.add_one_form({0, 1});
+  b.add_one_form({0, 1}, "the original");
+  b.add_one_form({0, 1}, "the copy");
   b.one_form_values([](ConstVecRef q, VecRef mu) { mu << 1.0, q[2], 1.0, 0.0; });
   const Model dependent = b.build();
   Workspace wd(dependent);
   try {
     start_from_velocity(dependent, wd, 0.0, Vector::Zero(3), Vector::Ones(3));
     FAIL() << "no exception";
-  } catch (const std::runtime_error& e) {
+  } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("projecting the velocity onto D(q0)"));
     EXPECT_THAT(e.what(), HasSubstr("dependent"));
+    EXPECT_THAT(e.what(), HasSubstr("(row 1 is the copy)"));
   }
   EXPECT_NO_THROW(start_from_velocity(dependent, wd, 0.0, Eigen::Vector3d(0, 0, 1), Vector::Ones(3)));
 }

@@ -11,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "callback_guard.hpp"
 #include "rattle_internal.hpp"
 #include "restart_internal.hpp"
 
@@ -125,31 +126,36 @@ Status composed_step(const Model& model, Workspace& ws, State& s, const RattleOp
     return ws.fail(Status::MethodNotApplicable,
                    "the workspace was built without room for composed steps: build it with "
                    "WorkspaceOptions::composed_steps = true");
-  const double t0 = s.t, H = o.h;
+  const double t0 = s.t, H = o.h, t_end = s.grid.next(s.t, H);
   double target = s.target_energy;
-  if (std::isnan(target) && !model.has_external_force())
-    target = kinetic_energy(model, s.p, ws.scratch_n) + model.potential(s.q);
   save(ws, s);
 
-  double elapsed = 0.0;  // gamma_1 + ... + gamma_i
-  double h = 0.0;
-  Status status = Status::Ok;
-  for (int i = 0; i < scheme.stages && status == Status::Ok; ++i) {
-    h = 0.5 * scheme.gamma[i] * H;
-    const bool last = i + 1 == scheme.stages;
-    status = advance(model, ws, s, o, h, t0 + (elapsed + 0.5 * scheme.gamma[i]) * H, nullptr);
-    elapsed += scheme.gamma[i];
-    if (status == Status::Ok) status = advance(model, ws, s, o, h, last ? t0 + H : t0 + elapsed * H, nullptr);
-  }
   bool restarted = false;
   ws.parasitic = std::numeric_limits<double>::quiet_NaN();
-  if (status == Status::Ok) status = control_at_boundary(model, ws, s, o, h, target, restarted);
+  // A callback that throws in a later substep is restored from like any failed substep.
+  const Status status = guard_callbacks(ws, [&] {
+    if (std::isnan(target) && !model.has_external_force())
+      target = kinetic_energy(model, s.p, ws.scratch_n) + model.potential(s.q);
+    double elapsed = 0.0;  // gamma_1 + ... + gamma_i
+    double h = 0.0;
+    Status st = Status::Ok;
+    for (int i = 0; i < scheme.stages && st == Status::Ok; ++i) {
+      h = 0.5 * scheme.gamma[i] * H;
+      const bool last = i + 1 == scheme.stages;
+      st = advance(model, ws, s, o, h, t0 + (elapsed + 0.5 * scheme.gamma[i]) * H, nullptr);
+      elapsed += scheme.gamma[i];
+      if (st == Status::Ok) st = advance(model, ws, s, o, h, last ? t_end : t0 + elapsed * H, nullptr);
+    }
+    if (st == Status::Ok) st = control_at_boundary(model, ws, s, o, h, target, restarted);
+    return st;
+  });
   if (status != Status::Ok) {
     restore(ws, s, t0);
     return status;
   }
   ws.restarted = restarted;
   if (restarted) ++s.restarts;
+  s.grid.advance();
   ++s.steps;
   s.target_energy = target;
   ws.clear_message();

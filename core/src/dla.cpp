@@ -3,17 +3,22 @@
 #include <cmath>
 #include <limits>
 
+#include "callback_guard.hpp"
 #include "option_checks.hpp"
 
 namespace nonholo {
 
 const char* to_string(DlaConstraint c) { return c == DlaConstraint::Midpoint ? "midpoint" : "left"; }
 
-void validate(const DlaOptions& o) {
-  detail::check_step_size(o.h);
-  detail::check_newton(o.newton_tolerance, o.max_newton_iterations);
-  detail::check_pivot_ratio(o.min_pivot_ratio);
+namespace {
+detail::OptionProblem dla_problem(const DlaOptions& o) {
+  if (auto p = detail::step_size_problem(o.h)) return p;
+  if (auto p = detail::newton_problem(o.newton_tolerance, o.max_newton_iterations)) return p;
+  return detail::pivot_ratio_problem(o.min_pivot_ratio);
 }
+}  // namespace
+
+void validate(const DlaOptions& o) { detail::reject_if(dla_problem(o)); }
 
 DlaState dla_start(const State& start, double h) {
   DlaState s;
@@ -23,7 +28,8 @@ DlaState dla_start(const State& start, double h) {
   return s;
 }
 
-Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions& o) {
+namespace {
+Status dla_step_unguarded(const Model& model, Workspace& ws, DlaState& s, const DlaOptions& o) {
   const int n = model.num_coordinates(), m = model.num_one_forms();
   if (&ws.model() != &model)
     return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
@@ -94,10 +100,19 @@ Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions
     return ws.fail(Status::NonFiniteState, "the step from t = %.17g produced NaN or Inf: reduce the step size (h = %g)", s.t, h);
   s.q.swap(ws.q_next);
   s.p.swap(ws.p_half);
-  s.t += h;
+  s.t = s.grid.next(s.t, h);
+  s.grid.advance();
   s.newton_iterations = iterations;
   ws.clear_message();
   return Status::Ok;
+}
+
+}  // namespace
+
+Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions& o) {
+  if (const detail::OptionProblem p = dla_problem(o); p && std::isfinite(o.h) && o.h > 0.0)
+    return ws.fail(Status::InvalidOptions, "DlaOptions: %s = %g %s", p.what, p.value, p.rule);
+  return detail::guard_callbacks(ws, [&] { return dla_step_unguarded(model, ws, s, o); });
 }
 
 }  // namespace nonholo

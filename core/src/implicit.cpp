@@ -9,16 +9,21 @@
 #include <stdexcept>
 
 #include "implicit_internal.hpp"
+#include "callback_guard.hpp"
 #include "option_checks.hpp"
 
 namespace nonholo {
 
-void validate(const ImplicitOptions& o) {
-  detail::check_step_size(o.h);
-  detail::check_newton(o.newton_tolerance, o.max_newton_iterations);
-  detail::check_pivot_ratio(o.min_pivot_ratio);
-  validate(o.restart);
+namespace {
+detail::OptionProblem implicit_problem(const ImplicitOptions& o) {
+  if (auto p = detail::step_size_problem(o.h)) return p;
+  if (auto p = detail::newton_problem(o.newton_tolerance, o.max_newton_iterations)) return p;
+  if (auto p = detail::pivot_ratio_problem(o.min_pivot_ratio)) return p;
+  return detail::restart_problem(o.restart);
 }
+}  // namespace
+
+void validate(const ImplicitOptions& o) { detail::reject_if(implicit_problem(o)); }
 
 ImplicitWorkspace::ImplicitWorkspace(const Model& model)
     : metric(Eigen::MatrixXd::Zero(model.num_coordinates(), model.num_coordinates())),
@@ -139,21 +144,22 @@ ImplicitState implicit_start(const Model& model, ImplicitWorkspace& ws, double t
   model.metric(q0, ws.metric);
   Vector p = ws.metric * v_guess, p_tilde(n), unused(n);
   if (ws.reflect(q0, p, p_tilde, unused, o.min_pivot_ratio) != Status::Ok)
-    throw std::runtime_error(std::string("implicit start: ") + ws.message());
+    throw std::invalid_argument(std::string("implicit start: ") + ws.message());
   // lambda(0) of the continuous equations, with the metric's Christoffel terms.
   ws.velocity = ws.metric_llt.solve(p_tilde);
   applied(model, t0, q0, ws);
   Vector constraint_force = Vector::Zero(n);
   if (m > 0) {
     if (detail::continuous_multiplier_parts(model, ws, q0) != Status::Ok)
-      throw std::runtime_error(std::string("implicit start: ") + ws.message());
+      throw std::invalid_argument(std::string("implicit start: ") + ws.message());
     constraint_force = ws.mu.transpose() * (ws.lambda_f + ws.lambda_b);
   }
   s.p = p_tilde - (0.5 * o.h) * constraint_force;  // p+ = p~ - (h/2) mu^T lambda (it holds (h/2) f already)
   return s;
 }
 
-Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& s, const ImplicitOptions& o) {
+namespace {
+Status implicit_step_unguarded(const Model& model, ImplicitWorkspace& ws, ImplicitState& s, const ImplicitOptions& o) {
   const int n = model.num_coordinates();
   if (&ws.model() != &model) return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
   if (!(o.h > 0.0) || !std::isfinite(o.h))
@@ -216,12 +222,21 @@ Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& s
     return status;
   s.q.swap(ws.q_next);
   s.p.swap(ws.p_next);
-  s.t += h;
+  s.t = s.grid.next(s.t, h);
+  s.grid.advance();
   s.newton_iterations = it;
   ++s.steps;
   if (ws.restarted) ++s.restarts;
   s.watch = watch;
   return Status::Ok;
+}
+
+}  // namespace
+
+Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& s, const ImplicitOptions& o) {
+  if (const detail::OptionProblem p = implicit_problem(o); p && std::isfinite(o.h) && o.h > 0.0)
+    return ws.fail(Status::InvalidOptions, "ImplicitOptions: %s = %g %s", p.what, p.value, p.rule);
+  return detail::guard_callbacks(ws, [&] { return implicit_step_unguarded(model, ws, s, o); });
 }
 
 }  // namespace nonholo

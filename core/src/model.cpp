@@ -2,6 +2,16 @@
 
 namespace nonholo {
 
+const std::string& Model::row_label(int r) const {
+  static const std::string none;
+  return r >= 0 && r < static_cast<int>(row_labels_.size()) ? row_labels_[r] : none;
+}
+
+std::string Model::describe_row(int r) const {
+  const std::string& label = row_label(r);
+  return "one-form row " + std::to_string(r) + (label.empty() ? "" : " (" + label + ")");
+}
+
 void Model::applied_force(double t, ConstVecRef q, VecRef f, VecRef scratch) const {
   if (force_)
     force_(t, q, f);

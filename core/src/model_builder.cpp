@@ -66,14 +66,30 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
         fail(os.str());
       }
   const Eigen::MatrixXd symmetric = 0.5 * (block + block.transpose());
-  // A diagonal block with positive entries is SPD; skip the eigensolver (a million bodies).
+  // A diagonal block's eigenvalues are its entries; skip the eigensolver (a million bodies).
   const bool diagonal = (block - Eigen::MatrixXd(block.diagonal().asDiagonal())).cwiseAbs().maxCoeff() == 0.0;
-  const double smallest =
-      diagonal ? block.diagonal().minCoeff()
-               : Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(symmetric).eigenvalues()(0);
-  if (!(smallest > 1e-14 * scale)) {
+  Eigen::VectorXd eigenvalues = block.diagonal();
+  if (!diagonal)
+    eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(symmetric, Eigen::EigenvaluesOnly).eigenvalues();
+  const double smallest = eigenvalues.minCoeff(), largest = eigenvalues.maxCoeff();
+  // Relative tests: the units of the entries mean nothing, their spread does. Solves with M
+  // lose about log10(largest / smallest) of double precision's 16 digits.
+  constexpr double kMaxCondition = 1e12;
+  if (smallest < 0.0 && !(-smallest <= largest / kMaxCondition)) {
     std::ostringstream os;
     os << who() << ": mass block is not positive definite (smallest eigenvalue " << smallest << ")";
+    fail(os.str());
+  }
+  if (!(smallest * kMaxCondition >= largest)) {
+    std::ostringstream os;
+    os << who() << ": mass block is too ill-conditioned for double precision: its eigenvalues run from "
+       << smallest << " to " << largest;
+    if (smallest > 0.0)
+      os << ", condition number " << largest / smallest << " (above " << kMaxCondition
+         << "): solves with it would lose about " << std::lround(std::log10(largest / smallest))
+         << " of double precision's 16 significant digits";
+    else
+      os << ", singular within round-off (a condition number of at most " << kMaxCondition << " is needed)";
     fail(os.str());
   }
   for (const auto& name : names) body_of_name_.emplace(name, index);
@@ -98,13 +114,18 @@ int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, doubl
   return add_body(list, Eigen::Vector3d(mass, mass, inertia).asDiagonal().toDenseMatrix());
 }
 
-int ModelBuilder::add_one_form(const std::vector<int>& columns) {
+int ModelBuilder::add_one_form(const std::vector<int>& columns, std::string label) {
   rows_.push_back(columns);
-  return static_cast<int>(rows_.size()) - 1;
+  const int row = static_cast<int>(rows_.size()) - 1;
+  if (!label.empty()) {
+    draft_.row_labels_.resize(rows_.size());  // stays empty for unlabelled models
+    draft_.row_labels_[row] = std::move(label);
+  }
+  return row;
 }
 
-int ModelBuilder::add_holonomic_row(const std::vector<int>& columns) {
-  const int row = add_one_form(columns);
+int ModelBuilder::add_holonomic_row(const std::vector<int>& columns, std::string label) {
+  const int row = add_one_form(columns, std::move(label));
   draft_.holonomic_rows_.push_back(row);
   return row;
 }
@@ -161,13 +182,14 @@ Model ModelBuilder::build() const {
   const auto& names = draft_.names_;
 
   Model model = draft_;
+  if (!model.row_labels_.empty()) model.row_labels_.resize(rows_.size());
   model.inverse_mass_ = model.mass_.inverse();
 
   model.pattern_.rows = static_cast<int>(rows_.size());
   model.pattern_.cols = n;
   std::vector<int> sorted;
   for (std::size_t r = 0; r < rows_.size(); ++r) {
-    auto row = [r] { return "one-form row " + std::to_string(r); };  // built only for a message
+    auto row = [&] { return draft_.describe_row(static_cast<int>(r)); };  // built only for a message
     if (rows_[r].empty()) fail(row() + " has no columns (an empty row constrains nothing)");
     for (int c : rows_[r]) {
       if (c < 0 || c >= n) {

@@ -19,6 +19,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "callback_guard.hpp"
 #include "option_checks.hpp"
 #include "rattle_internal.hpp"
 #include "restart_internal.hpp"
@@ -35,15 +36,32 @@ HitchMode hitch_mode_from_string(const std::string& name) {
   throw std::invalid_argument("unknown hitch mode '" + name + "' (valid: oneform, holonomic)");
 }
 
+namespace detail {
+
+OptionProblem rattle_problem(const RattleOptions& o) {
+  if (OptionProblem p = step_size_problem(o.h)) return p;
+  if (OptionProblem p = pivot_ratio_problem(o.min_pivot_ratio)) return p;
+  if (!(o.gap_tolerance > 0.0) || !std::isfinite(o.gap_tolerance))
+    return {"gap_tolerance", o.gap_tolerance, "must be positive and finite"};
+  if (!(o.gap_tolerance_limit >= o.gap_tolerance) || !std::isfinite(o.gap_tolerance_limit))
+    return {"gap_tolerance_limit", o.gap_tolerance_limit, "must be finite and at least gap_tolerance"};
+  if (o.max_gap_iterations < 1)
+    return {"max_gap_iterations", static_cast<double>(o.max_gap_iterations), "must be at least 1"};
+  if (OptionProblem p = restart_problem(o.restart)) return p;
+  if (o.order != 2 && o.order != 4 && o.order != 6) return {"order", static_cast<double>(o.order), "must be 2, 4 or 6"};
+  const bool fourth = o.composition == Composition::TripleJump || o.composition == Composition::Suzuki5;
+  const bool sixth = o.composition == Composition::Yoshida7 || o.composition == Composition::KahanLi9;
+  if ((fourth && o.order != 4) || (sixth && o.order != 6))
+    return {"order", static_cast<double>(o.order),
+            "does not match the composition (order 4: triple-jump, suzuki5; order 6: yoshida7, kahan-li9)"};
+  return {};
+}
+
+}  // namespace detail
+
 void validate(const RattleOptions& options) {
-  detail::check_step_size(options.h);
-  detail::check_pivot_ratio(options.min_pivot_ratio);
-  if (!(options.gap_tolerance > 0.0) || !std::isfinite(options.gap_tolerance))
-    detail::reject("gap_tolerance", options.gap_tolerance, "must be positive and finite");
-  if (options.max_gap_iterations < 1)
-    detail::reject("max_gap_iterations", options.max_gap_iterations, "must be at least 1");
-  validate(options.restart);
-  composition_scheme(options.order, options.composition);  // throws for a bad pair
+  detail::reject_if(detail::rattle_problem(options));
+  composition_scheme(options.order, options.composition);  // its own message for a bad pair
 }
 
 namespace {
@@ -90,7 +108,14 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
   if (status != Status::Ok) return status;
   const auto& rows = model.holonomic_rows();
   const int count = model.num_holonomic();
-  const double floor = 16.0 * std::numeric_limits<double>::epsilon() * ws.q_next.lpNorm<Eigen::Infinity>();
+  const double size = ws.q_next.lpNorm<Eigen::Infinity>();
+  const double floor = 16.0 * std::numeric_limits<double>::epsilon() * size;
+  if (floor > o.gap_tolerance_limit)
+    return ws.fail(Status::GapNotConverged,
+                   "coordinates reach |q| = %.3g at t = %.17g: their round-off (16 eps |q| = %.3g) exceeds "
+                   "gap_tolerance_limit %.3g, so no hitch can be closed; move the scene nearer the origin, use "
+                   "larger length units, or reduce the step size if the motion ran away",
+                   size, s.t, floor, o.gap_tolerance_limit);
   const double tolerance = std::max(o.gap_tolerance, floor);
   ws.gap_multiplier.setZero();
   for (int it = 0;; ++it) {
@@ -270,11 +295,15 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
   if (model.has_configuration_metric())
     return ws.fail(Status::MethodNotApplicable,
                    "the explicit step needs a constant metric; use implicit_step (implicit.hpp)");
+  if (const detail::OptionProblem p = detail::rattle_problem(options))
+    return ws.fail(Status::InvalidOptions, "RattleOptions: %s = %g %s", p.what, p.value, p.rule);
   if (options.order != 2 || options.composition != Composition::Auto) return detail::composed_step(model, ws, s, options);
 
   ModeWatch watch = s.watch;
-  const Status status = detail::advance(model, ws, s, options, h, s.t + h, &watch);
+  const Status status = detail::guard_callbacks(
+      ws, [&] { return detail::advance(model, ws, s, options, h, s.grid.next(s.t, h), &watch); });
   if (status != Status::Ok) return status;
+  s.grid.advance();
   ++s.steps;
   if (ws.restarted) ++s.restarts;
   s.watch = watch;

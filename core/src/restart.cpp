@@ -14,6 +14,7 @@
 #include <cmath>
 #include <limits>
 
+#include "callback_guard.hpp"
 #include "restart_internal.hpp"
 
 namespace nonholo {
@@ -303,18 +304,22 @@ Status multiplier_of_state(const Model& model, Workspace& ws, const State& s, do
 Status parasitic_amplitude(const Model& model, Workspace& ws, const State& s, double h, double& amplitude,
                            double min_pivot_ratio) {
   amplitude = 0.0;
-  const Status status = multiplier_of_state(model, ws, s, h, min_pivot_ratio);
-  if (status == Status::Ok && model.num_one_forms() > 0)
-    amplitude = detail::parasitic_of(model, ws, s.p, s.lambda, h, false);
-  return status;
+  return detail::guard_callbacks(ws, [&] {
+    const Status status = multiplier_of_state(model, ws, s, h, min_pivot_ratio);
+    if (status == Status::Ok && model.num_one_forms() > 0)
+      amplitude = detail::parasitic_of(model, ws, s.p, s.lambda, h, false);
+    return status;
+  });
 }
 
 Status restart(const Model& model, Workspace& ws, State& s, const RattleOptions& options) {
-  Status status = multiplier_of_state(model, ws, s, options.h, options.min_pivot_ratio);
-  if (status != Status::Ok || model.num_one_forms() == 0) return status;
-  status = detail::rescaled_restart(model, ws, s.q, s.p, s.lambda, s.force, ws.applied, options.h, false);
-  if (status == Status::Ok) ++s.restarts;
-  return status;
+  return detail::guard_callbacks(ws, [&] {
+    Status status = multiplier_of_state(model, ws, s, options.h, options.min_pivot_ratio);
+    if (status != Status::Ok || model.num_one_forms() == 0) return status;
+    status = detail::rescaled_restart(model, ws, s.q, s.p, s.lambda, s.force, ws.applied, options.h, false);
+    if (status == Status::Ok) ++s.restarts;
+    return status;
+  });
 }
 
 }  // namespace nonholo

@@ -17,16 +17,24 @@ const char* to_string(RestartMode mode) {
   return "unknown";
 }
 
-void validate(const RestartOptions& o) {
+namespace detail {
+
+OptionProblem restart_problem(const RestartOptions& o) {
   if (o.mode == RestartMode::Periodic && o.every < 1)
-    detail::reject("restart every", o.every, "must be at least 1 with RestartMode::Periodic");
-  if (o.every < 0) detail::reject("restart every", o.every, "must not be negative");
+    return {"restart every", static_cast<double>(o.every), "must be at least 1 with RestartMode::Periodic"};
+  if (o.every < 0) return {"restart every", static_cast<double>(o.every), "must not be negative"};
   if (!(o.tolerance >= 0.0) || !std::isfinite(o.tolerance))
-    detail::reject("restart tolerance", o.tolerance, "must be 0 (h^3) or positive and finite");
-  if (o.monitor_every < 0) detail::reject("monitor_every", o.monitor_every, "must be 0 (never) or positive");
+    return {"restart tolerance", o.tolerance, "must be 0 (h^3) or positive and finite"};
+  if (o.monitor_every < 0)
+    return {"monitor_every", static_cast<double>(o.monitor_every), "must be 0 (never) or positive"};
   if (o.mode == RestartMode::Auto && o.monitor_every < 1)
-    detail::reject("monitor_every", o.monitor_every, "must be at least 1 with RestartMode::Auto");
+    return {"monitor_every", static_cast<double>(o.monitor_every), "must be at least 1 with RestartMode::Auto"};
+  return {};
 }
+
+}  // namespace detail
+
+void validate(const RestartOptions& o) { detail::reject_if(detail::restart_problem(o)); }
 
 void set_restart(RestartOptions& o, const std::string& spec) {
   if (spec == "auto") {

@@ -3,6 +3,8 @@
 #include <nonholo/dynamics.hpp>
 
 #include <cmath>
+#include <limits>
+#include <string>
 #include <sstream>
 #include <stdexcept>
 
@@ -26,7 +28,7 @@ void check_vector(const char* what, ConstVecRef v, const Model& model) {
 
 void check(Status status, const Workspace& ws, const char* doing) {
   if (status == Status::Ok) return;
-  throw std::runtime_error(std::string("start: ") + doing + ": " + to_string(status) + ": " + ws.message());
+  throw std::invalid_argument(std::string("start: ") + doing + ": " + to_string(status) + ": " + ws.message());
 }
 
 State allocate_state(const Model& model, double t0, ConstVecRef q0) {
@@ -47,6 +49,52 @@ void check_time(double t0) {
   }
 }
 
+// Each callback, evaluated once at (t0, q0) into NaN-filled output, must fill every entry:
+// one that fills too few values would otherwise leave the previous call's numbers there and
+// go unseen (debug builds also NaN-fill mu before every evaluation, workspace.cpp).
+void check_callbacks_fill(const Model& model, double t0, ConstVecRef q0) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const int n = model.num_coordinates();
+  const auto& names = model.coordinate_names();
+  auto complain = [](const std::string& what) { throw std::invalid_argument("start: " + what); };
+  if (model.num_one_forms() > 0) {
+    Vector mu = Vector::Constant(model.num_one_form_values(), nan);
+    model.one_form_values(q0, mu);
+    const auto& pattern = model.one_form_pattern();
+    for (int r = 0; r < pattern.rows; ++r)
+      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
+        if (std::isnan(mu[k]))
+          complain("one_form_values left value " + std::to_string(k) + " (" + model.describe_row(r) + ", column " +
+                   names[pattern.col_idx[k]] + ") unset or NaN at q0: it must fill all " +
+                   std::to_string(pattern.nnz()) + " values, row by row in the order of each row's columns");
+    if (model.has_analytic_bias()) {
+      Vector bias = Vector::Constant(model.num_one_forms(), nan);
+      model.analytic_bias(q0, Vector::Zero(n), bias);
+      for (int r = 0; r < model.num_one_forms(); ++r)
+        if (std::isnan(bias[r]))
+          complain("one_form_bias left entry " + std::to_string(r) + " (" + model.describe_row(r) +
+                   ") unset or NaN at q0 with qdot = 0");
+    }
+  }
+  if (model.num_holonomic() > 0) {
+    Vector g = Vector::Constant(model.num_holonomic(), nan);
+    model.gap(q0, g);
+    for (int j = 0; j < g.size(); ++j)
+      if (std::isnan(g[j]))
+        complain("gap left entry " + std::to_string(j) + " (" + model.describe_row(model.holonomic_rows()[j]) +
+                 ") unset or NaN at q0");
+  }
+  if (model.has_applied_force()) {
+    Vector f = Vector::Constant(n, nan), scratch = Vector::Constant(n, nan);
+    model.applied_force(t0, q0, f, scratch);
+    for (int i = 0; i < n; ++i)
+      if (std::isnan(f[i]))
+        complain(std::string(model.has_external_force() ? "the external force or the potential gradient"
+                                                        : "the potential gradient") +
+                 " left entry " + std::to_string(i) + " (" + names[i] + ") unset or NaN at q0");
+  }
+}
+
 }  // namespace
 
 State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
@@ -54,6 +102,7 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
   check_time(t0);
   check_vector("q0", q0, model);
   check_vector("the velocity guess", v_guess, model);
+  check_callbacks_fill(model, t0, q0);
   State s = allocate_state(model, t0, q0);
 
   model.mass().multiply(v_guess.data(), s.p.data());
@@ -81,6 +130,7 @@ State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstV
   check_time(t0);
   check_vector("q0", q0, model);
   check_vector("q1", q1, model);
+  check_callbacks_fill(model, t0, q0);
   if (!(h > 0.0) || !std::isfinite(h)) {
     std::ostringstream os;
     os << "start: step size h = " << h << " must be positive and finite";
@@ -117,7 +167,7 @@ State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstV
       }
       if (std::abs(sum) > tolerance * row_norm * speed) {
         std::ostringstream os;
-        os << "start: (q0, q1) is not in M0: one-form row " << r << " gives mu(q0) M^-1 p0 = " << sum
+        os << "start: (q0, q1) is not in M0: " << model.describe_row(r) << " gives mu(q0) M^-1 p0 = " << sum
            << ", more than " << tolerance << " times |mu_" << r << "|_1 |M^-1 p0|_inf = " << row_norm * speed;
         throw std::invalid_argument(os.str());
       }

@@ -19,6 +19,11 @@ const char* to_string(Status status) {
     case Status::MethodNotApplicable: return "method-not-applicable";
     case Status::InvalidInput: return "invalid-input";
     case Status::RestartFailed: return "restart-failed";
+    case Status::InvalidOptions: return "invalid-options";
+    case Status::CallbackFailed: return "callback-failed";
+    case Status::UnstableStepSize: return "unstable-step-size";
+    case Status::BlewUp: return "blew-up";
+    case Status::Interrupted: return "interrupted";
   }
   return "unknown";
 }

@@ -1,7 +1,9 @@
 #include <nonholo/workspace.hpp>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 
 namespace nonholo {
 
@@ -26,7 +28,7 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
     for (Vector* v : {&map_probe, &map_rest, &map_linear}) v->setZero(n);
     map_lambda0.setZero(m);
     map_lambda1.setZero(m);
-    map_values.setZero(maps);
+    map_values.setZero(2 * maps);  // J_j, then the scale each is checked against
   }
   if (options.composed_steps) {
     saved_q.setZero(n);
@@ -53,6 +55,11 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
   mu_valid_ = false;
   factor_valid_ = false;
   if (model_->num_one_forms() == 0) return Status::Ok;
+#ifndef NDEBUG
+  // Debug builds: a value function that fills too few values leaves NaN, which factorize()
+  // reports with its row and column (release builds check this once, at the start).
+  mu_values.setConstant(std::numeric_limits<double>::quiet_NaN());
+#endif
   model_->one_form_values(q, mu_values);
   // NaN or Inf in mu reaches a diagonal entry of C, so factorize() finds it; the scan that
   // names the entry runs only then (one pass less over mu in every step).
@@ -67,11 +74,19 @@ Status Workspace::report_non_finite_one_forms() {
     for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
       if (!std::isfinite(mu_values[k]))
         return fail(Status::NonFiniteOneForms,
-                    "one-form row %d, column %d (%s) has value %g: check the model's one-form "
+                    "one-form row %d%s, column %d (%s) has value %g: check the model's one-form "
                     "values at this q, or reduce the step size if the state blew up",
-                    r, pattern.col_idx[k], model_->coordinate_names()[pattern.col_idx[k]].c_str(), mu_values[k]);
-  return fail(Status::NonFiniteOneForms, "%s: the state or the one-forms are not finite: reduce the step size",
-              factor_->message());
+                    r, row_note(r), pattern.col_idx[k], model_->coordinate_names()[pattern.col_idx[k]].c_str(),
+                    mu_values[k]);
+  return fail(Status::NonFiniteOneForms, "%s%s: the state or the one-forms are not finite: reduce the step size",
+              factor_->message(), row_note(factor_->failed_row()));
+}
+
+const char* Workspace::row_note(int row) {
+  const char* label = row >= 0 ? model_->row_label(row).c_str() : "";
+  if (!*label) return "";
+  std::snprintf(row_note_, sizeof row_note_, " (row %d is %s)", row, label);
+  return row_note_;
 }
 
 Status Workspace::factorize(double min_pivot_ratio) {
@@ -91,14 +106,14 @@ Status Workspace::factorize(double min_pivot_ratio) {
     case FactorStatus::Ok: factor_valid_ = true; return Status::Ok;
     case FactorStatus::NotPositiveDefinite:
       return fail(Status::DependentOneForms,
-                  "%s: remove a redundant constraint, or change the step size if the motion only "
+                  "%s%s: remove a redundant constraint, or change the step size if the motion only "
                   "passes through this configuration",
-                  factor_->message());
+                  factor_->message(), row_note(factor_->failed_row()));
     case FactorStatus::NearlySingular:
       return fail(Status::NearlyDependentOneForms,
-                  "%s: reduce the step size to pass this near-singular configuration (a jackknifing "
+                  "%s%s: reduce the step size to pass this near-singular configuration (a jackknifing "
                   "train), or lower min_pivot_ratio if it is meant",
-                  factor_->message());
+                  factor_->message(), row_note(factor_->failed_row()));
     case FactorStatus::NonFinite:
       return report_non_finite_one_forms();
     default:

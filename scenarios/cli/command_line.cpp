@@ -4,16 +4,37 @@
 #include <nonholo/scenarios/run.hpp>
 #include <nonholo/scenarios/work_precision.hpp>
 
+#include <nonholo/scenarios/scene_file.hpp>
+
 #include <CLI/CLI.hpp>
 
+#include "../src/interrupt.hpp"
+#include <unistd.h>
+
+#include <algorithm>
 #include <ostream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace nonholo::scenarios {
+
+// The shell's convention for a process ended by SIGINT (128 + 2).
+constexpr int kInterruptedExit = 130;
 namespace {
 
 constexpr const char* kCommands = "run, batch, list, wp";
+// prepare_run (run.cpp) refuses more steps than this; checked here first for a message
+// that names the options.
+constexpr double kMaxSteps = 1e12;
+
+std::string format(double x) {
+  std::ostringstream os;
+  os.precision(3);
+  os << x;
+  return os.str();
+}
 
 // The options `run` and `batch` share, with their raw strings for the enums.
 struct RunOptions {
@@ -58,6 +79,46 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                 "error_estimate, the max difference in q over the output times (Richardson-scaled)");
 }
 
+// --t-end / --dt beyond kMaxSteps steps, with the scene's default for the other one (a
+// scene file's defaults are checked when it is read, by prepare_run).
+void check_step_count(const CLI::App* cmd, const RunConfig& run) {
+  if ((!cmd->count("--t-end") && !cmd->count("--dt")) || is_scene_file(run.scene)) return;
+  double dt = run.dt, t_end = run.t_end;
+  try {
+    const SceneInfo& info = find_scene(run.scene);
+    if (!cmd->count("--dt")) dt = info.default_dt;
+    if (!cmd->count("--t-end")) t_end = info.default_t_end;
+  } catch (const std::invalid_argument&) {
+    return;  // an unknown scene: run_scene names it
+  }
+  const double steps = t_end / dt;
+  if (!(steps > kMaxSteps)) return;
+  throw std::invalid_argument("t_end " + format(t_end) + " / dt " + format(dt) + " = " + format(steps) +
+                              " steps, more than the " + format(kMaxSteps) +
+                              " a run may take (the one-body sleigh takes about 160 ns per step: 1e12 steps "
+                              "would take two days); shorten --t-end or lengthen --dt");
+}
+
+// A batch keeps one row of results per trajectory until it ends: refuse a --count whose rows
+// alone exceed the machine's memory (std::bad_alloc otherwise), and more threads than can
+// run (tens of thousands make the OpenMP runtime fail or crash).
+void check_batch_size(const CLI::App* cmd, const BatchConfig& batch) {
+  const double row = sizeof(RunSummary) + 2 * sizeof(std::string) + 2 * sizeof(std::vector<double>);
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  const double memory = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
+  const double need = row * static_cast<double>(batch.count);
+  if (memory > 0.0 && need > memory)
+    throw std::invalid_argument("--count " + std::to_string(batch.count) + ": the results table would need " +
+                                format(need / 1e9) + " GB (at least " + format(row) +
+                                " bytes per trajectory); this machine has " + format(memory / 1e9) + " GB");
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int max_threads = std::max(256, 8 * cores);
+  if (cmd->count("--threads") && batch.threads > max_threads)
+    throw std::invalid_argument("--threads " + std::to_string(batch.threads) + ": at most " +
+                                std::to_string(max_threads) + " on this machine (8 per hardware thread, of which it has " +
+                                std::to_string(cores) + ", and at least 256): more cannot run at once");
+}
+
 // Checks that need to know which options were given; fills the enums.
 void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   RunConfig& run = o.config;
@@ -86,6 +147,7 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   }
   if (cmd->count("--t-end") && !(run.t_end >= 0.0))
     throw std::invalid_argument("--t-end " + std::to_string(run.t_end) + ": must be non-negative");
+  check_step_count(cmd, run);
   run.backend = sparse::backend_from_string(o.backend);
   run.hitch = hitch_mode_from_string(o.hitch);
 }
@@ -158,24 +220,27 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       finish_run_options(batch_cmd, batch_run);
       if (batch_cmd->count("--threads") && batch.threads < 1)
         throw std::invalid_argument("--threads " + std::to_string(batch.threads) + ": must be at least 1");
+      check_batch_size(batch_cmd, batch);
       batch.run = batch_run.config;
+      InterruptScope on_ctrl_c;  // Ctrl-C: finish the rows, print the summary, exit 130
       const BatchResult result = run_batch(batch);
       out << result.line() << std::endl;
       if (!result.aggregate.warning.empty()) err << "nonholo batch: warning: " << result.aggregate.warning << std::endl;
       if (result.failed > 0) {
         err << "nonholo batch: " << result.failed << " of " << result.trajectories
             << " trajectories failed; first: " << result.first_failure << std::endl;
-        return 2;
+        return interrupt_requested() ? kInterruptedExit : 2;
       }
       return 0;
     }
     finish_run_options(run_cmd, run);
+    InterruptScope on_ctrl_c;
     const RunSummary summary = run_scene(run.config);
     out << summary.line() << std::endl;
     if (!summary.warning.empty()) err << "nonholo run: warning: " << summary.warning << std::endl;
     if (summary.status != Status::Ok) {
       err << "nonholo run: " << summary.message << std::endl;
-      return 2;
+      return summary.status == Status::Interrupted ? kInterruptedExit : 2;
     }
   } catch (const std::exception& e) {
     err << "nonholo " << name << ": " << e.what() << std::endl;

@@ -115,6 +115,7 @@ BatchResult run_batch(const BatchConfig& config) {
       agg.order = s.order;
       agg.composition = s.composition;
       agg.factorizations = s.factorizations >= 0 ? 0 : -1;
+      agg.stability_ratio = s.stability_ratio;
       agg.error_estimate = config.run.error_estimate ? 0.0 : std::numeric_limits<double>::quiet_NaN();
       agg.bodies = s.bodies;
       agg.backend = s.backend;
@@ -124,11 +125,13 @@ BatchResult run_batch(const BatchConfig& config) {
       agg.work = std::numeric_limits<double>::quiet_NaN();  // a sum over trajectories means nothing
     }
     if (s.restarts > 0) agg.restarts += s.restarts;
+    if (!std::isnan(s.stability_ratio)) agg.stability_ratio = worst(agg.stability_ratio, s.stability_ratio);
+    if (agg.warning.empty() && !s.warning.empty()) agg.warning = "trajectory " + std::to_string(i) + ": " + s.warning;
     if (!std::isnan(s.parasitic_max) && !(s.parasitic_max <= agg.parasitic_max)) {
       agg.parasitic_max = s.parasitic_max;
       if (!s.warning.empty()) agg.warning = "trajectory " + std::to_string(i) + ": " + s.warning;
     }
-    agg.energy_balance_err_max = std::max(agg.energy_balance_err_max, s.energy_balance_err_max);
+    agg.energy_balance_err_max = worst(agg.energy_balance_err_max, s.energy_balance_err_max);
     if (s.status != Status::Ok) {
       if (result.failed++ == 0) result.first_failure = "trajectory " + std::to_string(i) + ": " + s.message;
       agg.status = s.status;
@@ -136,13 +139,12 @@ BatchResult run_batch(const BatchConfig& config) {
     agg.steps += s.steps;
     agg.t_final = std::max(agg.t_final, s.t_final);
     loop_ns += s.ns_per_step * static_cast<double>(s.steps);
-    agg.energy_rel_err_max = std::max(agg.energy_rel_err_max, s.energy_rel_err_max);
-    agg.energy_post_rel_err_max = std::isnan(s.energy_post_rel_err_max) ? s.energy_post_rel_err_max
-                                  : std::max(agg.energy_post_rel_err_max, s.energy_post_rel_err_max);
-    agg.residual_max = std::max(agg.residual_max, s.residual_max);
-    agg.gap_max = std::max(agg.gap_max, s.gap_max);
+    agg.energy_rel_err_max = worst(agg.energy_rel_err_max, s.energy_rel_err_max);
+    agg.energy_post_rel_err_max = worst(agg.energy_post_rel_err_max, s.energy_post_rel_err_max);
+    agg.residual_max = worst(agg.residual_max, s.residual_max);
+    agg.gap_max = worst(agg.gap_max, s.gap_max);
     agg.has_momentum = s.has_momentum;
-    agg.momentum_drift_max = std::max(agg.momentum_drift_max, s.momentum_drift_max);
+    agg.momentum_drift_max = worst(agg.momentum_drift_max, s.momentum_drift_max);
     if (s.factorizations >= 0 && agg.factorizations >= 0) agg.factorizations += s.factorizations;
     // NaN (a companion that failed) wins: the estimate is then unknown.
     if (config.run.error_estimate && !(s.error_estimate <= agg.error_estimate)) agg.error_estimate = s.error_estimate;

@@ -1,10 +1,14 @@
 #pragma once
-// A progress bar on stderr for long runs, drawn only when stderr is a terminal (nothing at
-// all otherwise, so pipes and files get clean output). Thread-safe: update() may be called
-// from any thread; one of them redraws at most ten times a second.
+// A progress bar on stderr for long runs, drawn only when stderr is a terminal or
+// NONHOLO_PROGRESS=1 (nothing at all otherwise, so pipes and files get clean output), with the
+// time left. Thread-safe:
+// update() may be called from any thread; whichever gets the mutex redraws, at most ten times
+// a second. Everything update() reads before taking the mutex is atomic.
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <mutex>
 #include <string>
 
@@ -15,41 +19,69 @@ namespace nonholo::scenarios {
 class Progress {
  public:
   Progress(std::string label, long total)
-      : label_(std::move(label)), total_(total), enabled_(total > 0 && isatty(fileno(stderr))),
-        start_(std::chrono::steady_clock::now()), last_(start_) {}
+      : label_(std::move(label)), total_(total), enabled_(total > 0 && (isatty(fileno(stderr)) || forced())),
+        start_(Clock::now()) {}
   ~Progress() { finish(); }
 
   void add(long done) { update(done_ += done); }
   void update(long done) {
     if (!enabled_) return;
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_ < std::chrono::milliseconds(100) || now - start_ < std::chrono::milliseconds(500)) return;
+    const std::int64_t now = since_start_ns();
+    if (now < kFirstDrawNs || now - last_ns_.load(std::memory_order_relaxed) < kRedrawNs) return;
     std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);
     if (!lock) return;
-    last_ = now;
+    last_ns_.store(now, std::memory_order_relaxed);
     const double f = static_cast<double>(done) / static_cast<double>(total_);
     const int width = 30, filled = static_cast<int>(f * width);
     std::string bar(static_cast<std::size_t>(filled), '#');
     bar.resize(width, '.');
-    std::fprintf(stderr, "\r%s [%s] %5.1f%%", label_.c_str(), bar.c_str(), 100.0 * f);
+    const double left = f > 0.0 ? 1e-9 * static_cast<double>(now) * (1.0 - f) / f : -1.0;
+    std::fprintf(stderr, "\r%s [%s] %5.1f%% %s", label_.c_str(), bar.c_str(), 100.0 * f, format_eta(left).c_str());
     std::fflush(stderr);
     drawn_ = true;
   }
+  // The time left (seconds; negative: unknown) at the mean rate so far, fixed width:
+  // "ETA     1m05s", "ETA   2h03m04s", "ETA    --    ".
+  static std::string format_eta(double seconds) {
+    if (!(seconds >= 0.0) || seconds > 3.6e8) return "ETA    --    ";
+    const long left = static_cast<long>(seconds + 0.5);
+    char text[40];
+    if (left >= 3600)
+      std::snprintf(text, sizeof text, "ETA %3ldh%02ldm%02lds", left / 3600, left / 60 % 60, left % 60);
+    else
+      std::snprintf(text, sizeof text, "ETA %6ldm%02lds", left / 60, left % 60);
+    return text;
+  }
+
   void finish() {
+    std::lock_guard<std::mutex> lock(mutex_);
     if (!drawn_) return;
-    std::fprintf(stderr, "\r%*s\r", static_cast<int>(label_.size()) + 42, "");
+    std::fprintf(stderr, "\r%*s\r", static_cast<int>(label_.size()) + kLineExtra, "");
     std::fflush(stderr);
     drawn_ = false;
   }
 
  private:
+  using Clock = std::chrono::steady_clock;
+  static constexpr std::int64_t kFirstDrawNs = 500'000'000, kRedrawNs = 100'000'000;
+  static constexpr int kLineExtra = 58;  // " [bar] 100.0% ETA 99h59m59s" and some room
+
+  std::int64_t since_start_ns() const {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start_).count();
+  }
+  static bool forced() {
+    const char* v = std::getenv("NONHOLO_PROGRESS");
+    return v && std::string(v) == "1";
+  }
+
   std::string label_;
   long total_;
   bool enabled_;
   std::atomic<long> done_{0};
-  std::chrono::steady_clock::time_point start_, last_;
+  Clock::time_point start_;
+  std::atomic<std::int64_t> last_ns_{0};  // read before the mutex is taken: atomic
   std::mutex mutex_;
-  bool drawn_ = false;
+  bool drawn_ = false;  // under mutex_
 };
 
 }  // namespace nonholo::scenarios

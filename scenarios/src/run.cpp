@@ -2,9 +2,11 @@
 
 #include <nonholo/scenarios/scene_file.hpp>
 
+#include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_internal.hpp"
 #include "runners.hpp"
+#include "stability_watch.hpp"
 
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
@@ -31,9 +33,6 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
-
-// max that lets a NaN through instead of hiding it.
-double worst(double so_far, double value) { return (std::isnan(value) || value > so_far) ? value : so_far; }
 
 // Relative change, or absolute when the reference is zero.
 double relative_change(double value, double reference) {
@@ -94,6 +93,21 @@ double balance_error(double energy, double initial, double work) {
   return scale > 0.0 ? diff / scale : diff;
 }
 
+// Past this relative energy error (or energy balance error, with external forces) a run stops
+// with Status::BlewUp: the energy has more than doubled or vanished.
+constexpr double kBlowUpEnergyError = 1.0;
+
+bool finite(const Diagnostics& d) {
+  return std::isfinite(d.energy) && std::isfinite(d.residual) && std::isfinite(d.gap) &&
+         !std::isinf(d.energy_post);  // energy_post is NaN where it is not defined
+}
+
+std::string describe(const Diagnostics& d) {
+  std::ostringstream os;
+  os << "energy " << d.energy << ", energy_post " << d.energy_post << ", residual " << d.residual << ", gap " << d.gap;
+  return os.str();
+}
+
 // A parasitic amplitude above this is worth a warning: the mode then holds its square, a
 // visible share of the kinetic energy, and the trajectory is no longer the method's
 // second-order approximation.
@@ -141,6 +155,7 @@ std::string RunSummary::line() const {
   if (rhs_evaluations >= 0) os << " rhs_evals=" << rhs_evaluations;
   if (factorizations >= 0) os << " factorizations=" << factorizations;
   if (!std::isnan(error_estimate)) os << " error_estimate=" << error_estimate;
+  if (!std::isnan(stability_ratio)) os << " stability_ratio=" << stability_ratio;
   os << " backend=" << backend << " status=" << to_string(status);
   return os.str();
 }
@@ -197,7 +212,13 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
 
   SceneSetup setup = info.build(params);
   const Model& model = setup.model;
-  std::unique_ptr<Runner> runner = make_runner(setup, choice);
+  std::unique_ptr<Runner> runner;
+  try {
+    runner = make_runner(setup, choice);
+  } catch (const std::invalid_argument& e) {  // a scene file's start: name the file
+    if (!is_scene_file(config.scene)) throw;
+    throw std::invalid_argument(config.scene + ": " + e.what());
+  }
   std::unique_ptr<Runner> companion = config.error_estimate ? make_runner(setup, run.companion.choice) : nullptr;
   double companion_s = 0.0;
   double difference = 0.0;  // max over the output times of |q - q^|_inf
@@ -240,12 +261,27 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.residual_max = d0.residual;
   summary.gap_max = d0.gap;
   if (csv) csv->row(runner->t(), runner->q(), d0);
+  if (!finite(d0)) {
+    summary.status = Status::NonFiniteState;
+    summary.message = "the initial state is out of range: " + describe(d0) +
+                      ": check the scene's initial positions and velocities (a speed of 1e155 already "
+                      "overflows the energy)";
+  }
+  StabilityWatch stability(model, choice, dt);
+  if (summary.status == Status::Ok) summary.status = stability.check(*runner, 0, summary.message);
 
   double output_s = 0.0;
   const double t0 = runner->t();
   const auto loop_start = Clock::now();
-  for (long k = 1; k <= steps; ++k) {
+  for (long k = 1; k <= steps && summary.status == Status::Ok; ++k) {
     const double t_before = runner->t();
+    if (interrupt_requested()) {
+      summary.status = Status::Interrupted;
+      summary.message = "interrupted (SIGINT) after step " + std::to_string(k - 1) + " at t = " +
+                        std::to_string(t_before) + "; the output holds every row up to there";
+      break;
+    }
+    if (k > 1 && (summary.status = stability.check(*runner, k - 1, summary.message)) != Status::Ok) break;
     const Status status = runner->advance(t0 + static_cast<double>(k) * dt);
     if (status != Status::Ok) {
       summary.status = status;
@@ -257,6 +293,11 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     }
     summary.steps = k;
     const Diagnostics d = runner->diagnostics();
+    if (!finite(d)) {  // the step's own check passed (finite q, p), the energy or residual overflowed
+      summary.status = Status::BlewUp;
+      summary.message = "after step " + std::to_string(k) + " (t = " + std::to_string(runner->t()) +
+                        ") the diagnostics overflowed: " + describe(d) + ": reduce --dt";
+    }
     if (summary.has_work) {
       // The identity: E_post(k-1/2) - E_post(-1/2) = sum_{j<k} h F_j^T M^-1 p~_j, exactly. The
       // energy of p~_k sits half a step of work later: E(p~) = E_post(k-1/2) + (h/2) F_k^T M^-1
@@ -279,6 +320,24 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     }
     summary.residual_max = worst(summary.residual_max, d.residual);
     summary.gap_max = worst(summary.gap_max, d.gap);
+    // Blown up: every energy measure the method has is off by more than its initial value
+    // (net of the work). The plain method's period-2 mode moves the energy of p~ by that much
+    // while energy_post stays exact, so the smaller of the two decides.
+    if (summary.status == Status::Ok && (!forced || summary.has_work)) {
+      const double w = summary.work;
+      const double e = summary.has_work ? balance_error(d.energy, d0.energy, w + 0.5 * dt * (power - power0))
+                                        : relative_change(d.energy, d0.energy);
+      const double ep = summary.has_work ? balance_error(d.energy_post, d0.energy_post, w)
+                                         : relative_change(d.energy_post, d0.energy_post);
+      const double error = std::isnan(ep) ? e : std::min(e, ep);
+      if (error > kBlowUpEnergyError) {
+        summary.status = Status::BlewUp;
+        std::ostringstream os;
+        os << "the energy changed by " << error << " times its initial value by step " << k << " (t = "
+           << runner->t() << "): the trajectory blew up; reduce --dt";
+        summary.message = os.str();
+      }
+    }
     if (summary.has_momentum) {
       runner->momentum_maps(j);
       summary.momentum_drift_max = worst(summary.momentum_drift_max, (j - j0).lpNorm<Eigen::Infinity>());
@@ -306,6 +365,11 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     if (progress && (k & 15) == 0) progress->update(k);  // it reads the clock: not every step
   }
   const double loop_s = seconds_since(loop_start) - output_s - companion_s;
+  summary.stability_ratio = stability.ratio();
+  if (summary.status == Status::Ok) {
+    const std::string w = stability.warning();
+    if (!w.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + w;
+  }
   if (config.error_estimate) summary.error_estimate = run.companion.scale * difference;
   if (csv) csv->close();
   summary.t_final = runner->t();
@@ -315,7 +379,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   if (forced) summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();  // not an invariant
   if (forced && !summary.has_work) summary.energy_rel_err_max = std::numeric_limits<double>::quiet_NaN();
   if (summary.status == Status::Ok && summary.parasitic_max > kParasiticWarning)
-    summary.warning = parasitic_warning(summary, choice.rattle);
+    summary.warning += (summary.warning.empty() ? "" : " ") + parasitic_warning(summary, choice.rattle);
   // ARKODE stops at every output time (--dt): one step per interval means that its error
   // control wanted longer steps than --dt allowed, at the cost of evaluations.
   const long internal = runner->internal_steps();

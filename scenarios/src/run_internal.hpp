@@ -8,6 +8,11 @@
 
 namespace nonholo::scenarios {
 
+// max that lets a NaN through instead of hiding it (a blown-up trajectory must show).
+inline double worst(double so_far, double value) {
+  return (value != value || value > so_far) ? value : so_far;
+}
+
 struct PreparedRun {
   SceneInfo info;  // a built-in scene or one read from a file
   MethodChoice choice;

@@ -34,6 +34,7 @@ class ReflectionRunner final : public Runner {
   long restarts() const override { return state_.restarts; }
   double power() override { return external_power(model_, ws_, state_); }
   long factorizations() const override { return ws_.factorizations; }
+  Workspace* workspace() override { return &ws_; }
 
  private:
   const Model& model_;

@@ -36,6 +36,9 @@ class Runner {
   virtual long restarts() const { return -1; }
   // Reflection only: F(t, q)^T M^-1 p~ of the current state (external_power, diagnostics.hpp).
   virtual double power() { return std::numeric_limits<double>::quiet_NaN(); }
+  // The workspace whose factorisation holds C(q()) between steps, when the method has one
+  // (the stability watch borrows it instead of building its own).
+  virtual Workspace* workspace() { return nullptr; }
 };
 
 struct MethodChoice {

@@ -150,6 +150,7 @@ CholmodLDLT::CholmodLDLT(const SymmetricPattern& pattern, CholmodOrdering orderi
 CholmodLDLT::~CholmodLDLT() = default;
 
 FactorStatus CholmodLDLT::from_cholmod(int cholmod_status, const char* call) {
+  set_failed_row(-1);  // CHOLMOD's own failures are not tied to a row we can name
   switch (cholmod_status) {
     case CHOLMOD_OK: return FactorStatus::Ok;
     case CHOLMOD_NOT_POSDEF:

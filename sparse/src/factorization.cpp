@@ -48,6 +48,7 @@ Backend backend_from_string(const std::string& name) {
 }
 
 Backend resolve_backend(Backend requested, const SymmetricPattern& pattern) {
+  check_pattern(pattern);  // every backend indexes by it
   if (requested != Backend::Auto) return requested;
   const DiagonalBlocks blocks = find_diagonal_blocks(pattern);
   if (blocks.count() > 1 && blocks.max_size() <= kMaxDiagonalBlock) return Backend::BlockDiagonal;
@@ -60,7 +61,9 @@ FactorStatus Factorization::check_pivots(const double* pivot, const double* diag
                                          const int* row, double min_pivot_ratio) {
   min_ratio_ = size_ == 0 ? 1.0 : INFINITY;
   min_row_ = -1;
+  failed_row_ = -1;
   for (int k = 0; k < size_; ++k) {
+    failed_row_ = row[k];
     if (!std::isfinite(pivot[k]) || !std::isfinite(diag[k]))
       return fail(FactorStatus::NonFinite, "row %d of C: pivot %g, diagonal %g", row[k],
                   pivot[k], diag[k]);
@@ -73,6 +76,7 @@ FactorStatus Factorization::check_pivots(const double* pivot, const double* diag
       min_row_ = row[k];
     }
   }
+  failed_row_ = min_row_;
   if (!(min_ratio_ > 0.0))
     return fail(FactorStatus::NotPositiveDefinite,
                 "pivot of row %d of C is %g times its diagonal: the one-forms are dependent",
@@ -82,6 +86,7 @@ FactorStatus Factorization::check_pivots(const double* pivot, const double* diag
                 "pivot of row %d of C is %.3g times its diagonal (tolerance %.3g): the "
                 "one-forms are nearly dependent",
                 min_row_, min_ratio_, min_pivot_ratio);
+  failed_row_ = -1;
   clear_message();
   return FactorStatus::Ok;
 }

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <numeric>
+#include <stdexcept>
+#include <string>
 
 namespace nonholo::sparse {
 
@@ -11,7 +13,36 @@ int DiagonalBlocks::max_size() const {
   return largest;
 }
 
+void check_pattern(const SymmetricPattern& pattern) {
+  const int m = pattern.size, nnz = pattern.nnz();
+  const auto fail = [](const std::string& what) {
+    throw std::invalid_argument("symmetric pattern: " + what);
+  };
+  const auto column = [](int j) { return "column " + std::to_string(j); };
+  if (m < 0) fail("size " + std::to_string(m) + " is negative");
+  if (pattern.col_ptr.size() != static_cast<std::size_t>(m) + 1 || pattern.col_ptr[0] != 0 ||
+      pattern.col_ptr[m] != nnz)
+    fail("col_ptr must hold size + 1 = " + std::to_string(m + 1) + " offsets from 0 to nnz = " +
+         std::to_string(nnz));
+  for (int j = 0; j < m; ++j) {
+    const int begin = pattern.col_ptr[j], end = pattern.col_ptr[j + 1];
+    if (begin >= end || end > nnz || pattern.row_idx[begin] != j)
+      fail(column(j) + " is empty or does not start with its diagonal (row " +
+           std::to_string(j) + ")");
+    for (int s = begin + 1; s < end; ++s) {
+      const int row = pattern.row_idx[s];
+      if (row >= m)
+        fail(column(j) + ": row " + std::to_string(row) + " is out of range (size " +
+             std::to_string(m) + ", rows 0 to " + std::to_string(m - 1) + ")");
+      if (row <= pattern.row_idx[s - 1])
+        fail(column(j) + ": rows must increase, row " + std::to_string(row) + " follows " +
+             std::to_string(pattern.row_idx[s - 1]));
+    }
+  }
+}
+
 DiagonalBlocks find_diagonal_blocks(const SymmetricPattern& pattern) {
+  check_pattern(pattern);
   const int m = pattern.size;
   // Union-find over the off-diagonal entries; the root of a set is its smallest row.
   std::vector<int> parent(m);
@@ -47,6 +78,7 @@ DiagonalBlocks find_diagonal_blocks(const SymmetricPattern& pattern) {
 }
 
 long long natural_envelope(const SymmetricPattern& pattern) {
+  check_pattern(pattern);
   const int m = pattern.size;
   std::vector<int> first(m);
   std::iota(first.begin(), first.end(), 0);

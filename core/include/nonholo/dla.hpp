@@ -31,6 +31,7 @@ void validate(const DlaOptions& options);  // throws std::invalid_argument
 // (t_k, q_k, p_{k-1/2}): the configuration and the momentum of the step that arrived.
 struct DlaState {
   double t = 0.0;
+  TimeGrid grid;  // t_k = t0 + k h (time_grid.hpp)
   Vector q, p;
   int newton_iterations = 0;  // taken by the last midpoint step
 };

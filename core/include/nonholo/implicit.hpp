@@ -11,6 +11,7 @@
 #include <nonholo/restart_options.hpp>
 #include <nonholo/sparse/message.hpp>
 #include <nonholo/status.hpp>
+#include <nonholo/time_grid.hpp>
 #include <nonholo/workspace.hpp>
 
 #include <cstdarg>
@@ -38,6 +39,7 @@ void validate(const ImplicitOptions& options);  // throws std::invalid_argument
 // (t_k, q_k, p+_k): the momentum arriving at q_k.
 struct ImplicitState {
   double t = 0.0;
+  TimeGrid grid;  // t_k = t0 + k h (time_grid.hpp)
   Vector q, p;
   int newton_iterations = 0;  // taken by the last step
   long steps = 0, restarts = 0;
@@ -48,6 +50,7 @@ struct ImplicitState {
 class ImplicitWorkspace {
  public:
   explicit ImplicitWorkspace(const Model& model);
+  explicit ImplicitWorkspace(const Model&& model) = delete;  // it keeps a pointer to the model
   const Model& model() const { return *model_; }
   const char* message() const { return message_.c_str(); }
   Status fail(Status status, const char* format, ...) __attribute__((format(printf, 3, 4)));

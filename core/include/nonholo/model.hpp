@@ -31,6 +31,11 @@ class Model {
   int num_one_form_values() const { return pattern_.nnz(); }
   const Body& body(int b) const { return bodies_[b]; }
   const std::vector<std::string>& coordinate_names() const { return names_; }
+  // The label given to one-form row r (ModelBuilder::add_one_form), "" when none: messages
+  // about a row of mu or of C name it, so that a scene file's error points at its element.
+  const std::string& row_label(int r) const;
+  // "one-form row r" followed by " (label)" when the row has one; for set-up messages.
+  std::string describe_row(int r) const;
 
   const sparse::BlockDiagonal& mass() const { return mass_; }
   const sparse::BlockDiagonal& inverse_mass() const { return inverse_mass_; }
@@ -89,6 +94,7 @@ class Model {
   ExternalForce force_;
   std::vector<NamedMomentumMap> momentum_maps_;
   std::vector<int> holonomic_rows_;
+  std::vector<std::string> row_labels_;  // empty when no row has a label (large chains)
   MetricValue metric_;
   MetricDerivative metric_derivative_;
   ConstraintGap gap_;

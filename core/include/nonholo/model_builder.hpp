@@ -22,12 +22,13 @@ class ModelBuilder {
 
   // A constraint row mu_a(q) qdot = 0 touching these coordinates (its sparsity pattern,
   // fixed for ever). Returns the row index. Checked in build(): non-empty, no duplicates,
-  // every column in range.
-  int add_one_form(const std::vector<int>& columns);
+  // every column in range. The optional label (say "constraints[3] (knife_edge on body 2)")
+  // is named by every message about this row: set-up errors and failed steps alike.
+  int add_one_form(const std::vector<int>& columns, std::string label = "");
   // A row that is the gradient of a holonomic constraint g_j(q) = 0 (a hitch component):
   // added like add_one_form (its values come from one_form_values) and also recorded as
   // holonomic; gap() gives g_j in the order of these calls.
-  int add_holonomic_row(const std::vector<int>& columns);
+  int add_holonomic_row(const std::vector<int>& columns, std::string label = "");
   // The gaps g(q), required when there are holonomic rows.
   ModelBuilder& gap(ConstraintGap gap);
   // Fills the values of all rows at q (required when there are rows).

@@ -33,8 +33,11 @@ struct RattleOptions {
   double min_pivot_ratio = 1e-12;
   HitchMode hitch = HitchMode::Holonomic;
   // Holonomic mode: iterate until max_j |g_j(q_{k+1})| <= gap_tolerance (raised to
-  // 16 eps max|q| when coordinates are so large that round-off alone exceeds it) ...
+  // 16 eps max|q| when coordinates are so large that round-off alone exceeds it, but never
+  // beyond gap_tolerance_limit: at |q| ~ 1e19 round-off is 3e4, and a hitch "closed" to that
+  // is no hitch; such a step fails with GapNotConverged and says why) ...
   double gap_tolerance = 1e-12;
+  double gap_tolerance_limit = 1e-6;
   // ... or fail with Status::GapNotConverged after this many corrections.
   int max_gap_iterations = 20;
 

@@ -1,8 +1,8 @@
 #pragma once
 // Consistent initial states for the reflection integrator (DESIGN.md section 2, start-up).
 // These are set-up calls: they throw std::invalid_argument with a precise message on bad
-// input (sizes, non-finite values, (q0, q1) outside M0) and std::runtime_error when the
-// one-forms are dependent at q0.
+// input (sizes, non-finite values, (q0, q1) outside M0, one-forms dependent at q0 — the
+// message names the row and its label).
 #include <nonholo/model.hpp>
 #include <nonholo/state.hpp>
 #include <nonholo/workspace.hpp>

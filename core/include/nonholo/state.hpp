@@ -6,6 +6,7 @@
 // commits by swapping these vectors with the workspace's scratch (no copy), so their data()
 // pointers change from step to step: do not keep pointers into a State across steps.
 #include <nonholo/restart_options.hpp>
+#include <nonholo/time_grid.hpp>
 #include <nonholo/types.hpp>
 
 #include <limits>
@@ -13,7 +14,8 @@
 namespace nonholo {
 
 struct State {
-  double t = 0.0;
+  double t = 0.0;  // t_k = t0 + k h on the grid below (never summed step by step)
+  TimeGrid grid;
   Vector q;       // configuration q_k
   Vector p;       // average momentum p~_k, with mu(q_k) M^-1 p~_k = 0
   Vector lambda;  // multipliers lambda~_k (sign convention M qdd = f + mu^T lambda)

@@ -19,6 +19,11 @@ enum class Status {
   MethodNotApplicable,  // e.g. an explicit method on a model with a configuration metric
   InvalidInput,         // a batch trajectory whose set-up was refused (message says why)
   RestartFailed,        // a multiplier restart could not keep the energy (restart.hpp)
+  InvalidOptions,       // the step's options break a rule (the message names the field)
+  CallbackFailed,       // a model callback threw; the message has its text
+  UnstableStepSize,     // h at or beyond the explicit method's stability limit (stability.hpp)
+  BlewUp,               // a run's energy error passed 100% or its diagnostics overflowed: not a solution
+  Interrupted,          // a run stopped by SIGINT (the command-line tool)
 };
 
 const char* to_string(Status status);

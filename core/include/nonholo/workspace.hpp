@@ -24,6 +24,8 @@ struct WorkspaceOptions {
 class alignas(128) Workspace {
  public:
   explicit Workspace(const Model& model, const WorkspaceOptions& options = {});
+  // The workspace keeps a pointer to the model: one built from a temporary would dangle.
+  explicit Workspace(const Model&& model, const WorkspaceOptions& options = {}) = delete;
 
   const Model& model() const { return *model_; }
   // The factorisation in use (see sparse::Backend); "none" for a model without one-forms.
@@ -71,7 +73,7 @@ class alignas(128) Workspace {
   // computed (m); lambda_f: its part due to the applied force, -C^-1 mu M^-1 f (m, only for
   // models with an applied force). With momentum maps, the restart also keeps their directions
   // (map_directions, n x maps) and the split of p~ (map_probe, map_rest, map_linear: n;
-  // map_lambda0, map_lambda1: m).
+  // map_lambda0, map_lambda1: m; map_values: 2 maps, the maps' values J_j, then their scales).
   Vector lambda_s, lambda_f;
   Eigen::MatrixXd map_directions;
   Vector map_probe, map_rest, map_linear, map_lambda0, map_lambda1, map_values;
@@ -92,6 +94,9 @@ class alignas(128) Workspace {
   bool mu_valid_ = false;
   bool factor_valid_ = false;  // the factorisation holds C(mu_values)
   Status report_non_finite_one_forms();
+  // " (row r is <label>)" for a labelled row of mu or C, "" otherwise; no allocation.
+  const char* row_note(int row);
+  char row_note_[256] = "";
   sparse::Message message_;
 };
 

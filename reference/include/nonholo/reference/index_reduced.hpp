@@ -13,6 +13,8 @@ namespace nonholo::reference {
 class IndexReducedOde {
  public:
   explicit IndexReducedOde(const Model& model, const WorkspaceOptions& options = {});
+  // It keeps a pointer to the model: one built from a temporary would dangle.
+  explicit IndexReducedOde(const Model&& model, const WorkspaceOptions& options = {}) = delete;
 
   const Model& model() const { return *model_; }
   int size() const { return 2 * model_->num_coordinates(); }  // y = (q, v)

@@ -71,6 +71,9 @@ struct RunSummary {
   // companion trajectory q^, scaled by 2^p / (2^p - 1) for a fixed-step method of order p
   // (Richardson), so that it estimates the error of q itself. NaN when not computed.
   double error_estimate = std::numeric_limits<double>::quiet_NaN();
+  // Explicit fixed-step methods with applied forces: the largest dt / stability limit estimated
+  // (nonholo/stability.hpp); NaN when not applicable. A run refuses 1 or more, warns from 0.5.
+  double stability_ratio = std::numeric_limits<double>::quiet_NaN();
   bool has_momentum = false;
   double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|
 

@@ -20,11 +20,22 @@
 // b's centre (a holonomic constraint, closed at the start); a spring pulls theta_a - theta_b
 // towards rest_angle; a thrust acts along the body's heading, a torque on its angle, both
 // value + amplitude sin(omega t + phase).
+//
+// Limits, checked before the text is parsed: a scene file is a regular file (not a
+// directory, device or pipe) of at most kMaxSceneFileBytes, nested at most kMaxSceneDepth
+// arrays and objects deep (the format itself needs 4). A key given twice in one object is
+// refused, not silently overwritten. Problems found later, when the model is built or the
+// run starts, name the element of the file: each constraint row carries the label
+// "constraints[i] (knife_edge on body b)" or "constraints[i] (hitch of bodies a and b, x)".
 #include <nonholo/scenarios/scene.hpp>
 
+#include <cstddef>
 #include <string>
 
 namespace nonholo::scenarios {
+
+inline constexpr std::size_t kMaxSceneFileBytes = std::size_t{64} << 20;  // 64 MiB
+inline constexpr int kMaxSceneDepth = 64;
 
 // True when `name` should be read as a scene file (it ends in .json).
 bool is_scene_file(const std::string& name);
@@ -33,5 +44,10 @@ bool is_scene_file(const std::string& name);
 // std::invalid_argument naming the file, the position (line and column for syntax, the
 // path such as bodies[1].mass otherwise) and the problem.
 SceneInfo load_scene_file(const std::string& path);
+
+// The same from the text of a scene file (no file is read; `name` stands for the file in
+// messages and in SceneInfo::name). Throws std::invalid_argument only, for any text: the
+// fuzz target tests/fuzz/fuzz_scene_file.cpp holds it to that.
+SceneInfo parse_scene_text(const std::string& text, const std::string& name);
 
 }  // namespace nonholo::scenarios

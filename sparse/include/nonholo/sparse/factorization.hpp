@@ -70,6 +70,8 @@ class Factorization {
   // After factorize(): smallest pivot ratio and the row of C where it occurred.
   double min_pivot_ratio() const { return min_ratio_; }
   int min_pivot_row() const { return min_row_; }
+  // After a failed factorize(): the row of C at fault (-1 when the failure names none).
+  int failed_row() const { return failed_row_; }
   // Human-readable detail of the last failure ("" after success).
   const char* message() const { return message_.c_str(); }
 
@@ -88,11 +90,13 @@ class Factorization {
     return status;
   }
   void clear_message() { message_.clear(); }
+  void set_failed_row(int row) { failed_row_ = row; }
 
  private:
   int size_;
   double min_ratio_ = 0.0;
   int min_row_ = -1;
+  int failed_row_ = -1;
   Message message_;
 };
 

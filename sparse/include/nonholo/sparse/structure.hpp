@@ -8,6 +8,11 @@
 
 namespace nonholo::sparse {
 
+// Throws std::invalid_argument unless the pattern is what SymmetricPattern promises: col_ptr
+// of size + 1 non-decreasing offsets from 0 to nnz, each column starting at its diagonal, rows
+// strictly increasing and below size. Every function here and resolve_backend check it.
+void check_pattern(const SymmetricPattern& pattern);
+
 // The connected components of C's graph: C is block-diagonal after grouping these rows.
 // Block b holds rows[block_ptr[b] .. block_ptr[b+1]), sorted; blocks are ordered by their
 // first row.

@@ -1,0 +1,26 @@
+#include "interrupt.hpp"
+
+#include <atomic>
+#include <csignal>
+
+namespace nonholo::scenarios {
+namespace {
+
+std::atomic<int> g_interrupted{0};  // lock-free, so safe to set from a signal handler
+static_assert(std::atomic<int>::is_always_lock_free);
+
+extern "C" void on_sigint(int) { g_interrupted.store(1, std::memory_order_relaxed); }
+
+}  // namespace
+
+bool interrupt_requested() { return g_interrupted.load(std::memory_order_relaxed) != 0; }
+void request_interrupt() { g_interrupted.store(1, std::memory_order_relaxed); }
+
+InterruptScope::InterruptScope() : previous_(std::signal(SIGINT, on_sigint)) { g_interrupted.store(0); }
+
+InterruptScope::~InterruptScope() {
+  std::signal(SIGINT, previous_ == SIG_ERR ? SIG_DFL : previous_);
+  g_interrupted.store(0);
+}
+
+}  // namespace nonholo::scenarios
