@@ -53,23 +53,37 @@ Composition composition_from_string(const std::string& name) {
                               "' (valid: auto, triple-jump, suzuki5 (order 4), yoshida7, kahan-li9 (order 6))");
 }
 
+namespace detail {
+
+bool find_composition(int order, Composition c, CompositionScheme& scheme) {
+  if (order != 2 && order != 4 && order != 6) return false;
+  if (c == Composition::Auto) c = order == 4 ? Composition::Suzuki5 : order == 6 ? Composition::KahanLi9 : c;
+  switch (c) {
+    case Composition::Auto: scheme = {c, 2, 0, nullptr}; return true;
+    case Composition::TripleJump:
+    case Composition::Suzuki5:
+      if (order != 4) return false;
+      scheme = c == Composition::TripleJump ? CompositionScheme{c, 4, 3, kTripleJump} : CompositionScheme{c, 4, 5, kSuzuki5};
+      return true;
+    case Composition::Yoshida7:
+    case Composition::KahanLi9:
+      if (order != 6) return false;
+      scheme = c == Composition::Yoshida7 ? CompositionScheme{c, 6, 7, kYoshida7} : CompositionScheme{c, 6, 9, kKahanLi9};
+      return true;
+  }
+  return false;
+}
+
+}  // namespace detail
+
 CompositionScheme composition_scheme(int order, Composition c) {
   if (order != 2 && order != 4 && order != 6)
     throw std::invalid_argument("order = " + std::to_string(order) + " must be 2, 4 or 6");
-  if (c == Composition::Auto) c = order == 4 ? Composition::Suzuki5 : order == 6 ? Composition::KahanLi9 : c;
-  switch (c) {
-    case Composition::Auto: return {c, 2, 0, nullptr};
-    case Composition::TripleJump:
-    case Composition::Suzuki5:
-      if (order != 4) break;
-      return c == Composition::TripleJump ? CompositionScheme{c, 4, 3, kTripleJump} : CompositionScheme{c, 4, 5, kSuzuki5};
-    case Composition::Yoshida7:
-    case Composition::KahanLi9:
-      if (order != 6) break;
-      return c == Composition::Yoshida7 ? CompositionScheme{c, 6, 7, kYoshida7} : CompositionScheme{c, 6, 9, kKahanLi9};
-  }
-  throw std::invalid_argument(std::string("composition ") + to_string(c) + " is not of order " +
-                              std::to_string(order) + " (order 4: triple-jump, suzuki5; order 6: yoshida7, kahan-li9)");
+  CompositionScheme scheme;
+  if (!detail::find_composition(order, c, scheme))
+    throw std::invalid_argument(std::string("composition ") + to_string(c) + " is not of order " +
+                                std::to_string(order) + " (order 4: triple-jump, suzuki5; order 6: yoshida7, kahan-li9)");
+  return scheme;
 }
 
 namespace detail {
@@ -116,12 +130,7 @@ Status control_at_boundary(const Model& model, Workspace& ws, State& s, const Ra
 
 Status composed_step(const Model& model, Workspace& ws, State& s, const RattleOptions& o) {
   CompositionScheme scheme;
-  try {
-    scheme = composition_scheme(o.order, o.composition);
-  } catch (const std::invalid_argument& e) {
-    return ws.fail(Status::MethodNotApplicable, "%s: fix RattleOptions::order or ::composition", e.what());
-  }
-  if (scheme.stages == 0) return ws.fail(Status::MethodNotApplicable, "no composition for order 2");
+  find_composition(o.order, o.composition, scheme);  // a pair step() has checked
   if (ws.saved_q.size() != s.q.size())
     return ws.fail(Status::MethodNotApplicable,
                    "the workspace was built without room for composed steps: build it with "

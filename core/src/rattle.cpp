@@ -49,9 +49,7 @@ OptionProblem rattle_problem(const RattleOptions& o) {
     return {"max_gap_iterations", static_cast<double>(o.max_gap_iterations), "must be at least 1"};
   if (OptionProblem p = restart_problem(o.restart)) return p;
   if (o.order != 2 && o.order != 4 && o.order != 6) return {"order", static_cast<double>(o.order), "must be 2, 4 or 6"};
-  const bool fourth = o.composition == Composition::TripleJump || o.composition == Composition::Suzuki5;
-  const bool sixth = o.composition == Composition::Yoshida7 || o.composition == Composition::KahanLi9;
-  if ((fourth && o.order != 4) || (sixth && o.order != 6))
+  if (CompositionScheme scheme; !find_composition(o.order, o.composition, scheme))
     return {"order", static_cast<double>(o.order),
             "does not match the composition (order 4: triple-jump, suzuki5; order 6: yoshida7, kahan-li9)"};
   return {};

@@ -10,6 +10,9 @@ namespace nonholo::detail {
 Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h, double t_next,
                ModeWatch* watch);
 
+// The scheme of (order, composition) into `scheme`; false for a pair that has none (no throw).
+bool find_composition(int order, Composition composition, CompositionScheme& scheme);
+
 // One composed step of H = options.h (composition.hpp); the state is unchanged on failure.
 Status composed_step(const Model& model, Workspace& ws, State& s, const RattleOptions& options);
 

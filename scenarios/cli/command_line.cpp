@@ -4,12 +4,10 @@
 #include <nonholo/scenarios/run.hpp>
 #include <nonholo/scenarios/work_precision.hpp>
 
-#include <nonholo/scenarios/scene_file.hpp>
-
 #include <CLI/CLI.hpp>
+#include <unistd.h>
 
 #include "../src/interrupt.hpp"
-#include <unistd.h>
 
 #include <algorithm>
 #include <ostream>
@@ -25,9 +23,6 @@ constexpr int kInterruptedExit = 130;
 namespace {
 
 constexpr const char* kCommands = "run, batch, list, wp";
-// prepare_run (run.cpp) refuses more steps than this; checked here first for a message
-// that names the options.
-constexpr double kMaxSteps = 1e12;
 
 std::string format(double x) {
   std::ostringstream os;
@@ -79,26 +74,6 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                 "error_estimate, the max difference in q over the output times (Richardson-scaled)");
 }
 
-// --t-end / --dt beyond kMaxSteps steps, with the scene's default for the other one (a
-// scene file's defaults are checked when it is read, by prepare_run).
-void check_step_count(const CLI::App* cmd, const RunConfig& run) {
-  if ((!cmd->count("--t-end") && !cmd->count("--dt")) || is_scene_file(run.scene)) return;
-  double dt = run.dt, t_end = run.t_end;
-  try {
-    const SceneInfo& info = find_scene(run.scene);
-    if (!cmd->count("--dt")) dt = info.default_dt;
-    if (!cmd->count("--t-end")) t_end = info.default_t_end;
-  } catch (const std::invalid_argument&) {
-    return;  // an unknown scene: run_scene names it
-  }
-  const double steps = t_end / dt;
-  if (!(steps > kMaxSteps)) return;
-  throw std::invalid_argument("t_end " + format(t_end) + " / dt " + format(dt) + " = " + format(steps) +
-                              " steps, more than the " + format(kMaxSteps) +
-                              " a run may take (the one-body sleigh takes about 160 ns per step: 1e12 steps "
-                              "would take two days); shorten --t-end or lengthen --dt");
-}
-
 // A batch keeps one row of results per trajectory until it ends: refuse a --count whose rows
 // alone exceed the machine's memory (std::bad_alloc otherwise), and more threads than can
 // run (tens of thousands make the OpenMP runtime fail or crash).
@@ -147,7 +122,6 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   }
   if (cmd->count("--t-end") && !(run.t_end >= 0.0))
     throw std::invalid_argument("--t-end " + std::to_string(run.t_end) + ": must be non-negative");
-  check_step_count(cmd, run);
   run.backend = sparse::backend_from_string(o.backend);
   run.hitch = hitch_mode_from_string(o.hitch);
 }

@@ -93,6 +93,9 @@ double balance_error(double energy, double initial, double work) {
   return scale > 0.0 ? diff / scale : diff;
 }
 
+// A run takes at most this many steps (prepare_run).
+constexpr double kMaxSteps = 1e12;
+
 // Past this relative energy error (or energy balance error, with external forces) a run stops
 // with Status::BlewUp: the energy has more than doubled or vanished.
 constexpr double kBlowUpEnergyError = 1.0;
@@ -196,7 +199,14 @@ PreparedRun prepare_run(const RunConfig& config) {
     throw std::invalid_argument("--every " + std::to_string(config.every) + ": must be at least 1");
   // Whole steps of size dt; the run ends at the first multiple of dt at or after t_end.
   const double ratio = t_end / r.dt;
-  if (ratio > 1e12) throw std::invalid_argument("t_end / dt is above 1e12 steps");
+  if (!(ratio <= kMaxSteps)) {
+    std::ostringstream os;
+    os.precision(3);
+    os << "t_end " << t_end << " / dt " << r.dt << " = " << ratio << " steps, more than the " << kMaxSteps
+       << " a run may take (the one-body sleigh takes about 160 ns per step: 1e12 steps would take two days); "
+          "shorten --t-end or lengthen --dt";
+    throw std::invalid_argument(os.str());
+  }
   r.steps = static_cast<long>(std::ceil(ratio * (1.0 - 1e-12)));
   if (config.error_estimate) r.companion = companion_of(r.choice);
   return r;
@@ -298,22 +308,23 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       summary.message = "after step " + std::to_string(k) + " (t = " + std::to_string(runner->t()) +
                         ") the diagnostics overflowed: " + describe(d) + ": reduce --dt";
     }
+    // This step's energy errors: of p~ (e) and of the post-momentum (ep), net of the work when
+    // there is some. The identity: E_post(k-1/2) - E_post(-1/2) = sum_{j<k} h F_j^T M^-1 p~_j,
+    // exactly. The energy of p~_k sits half a step of work later: E(p~) = E_post(k-1/2) +
+    // (h/2) F_k^T M^-1 p~_k + O(h^2), so it is compared with the work to t_k, W + (h/2)(P_k - P_0).
+    double e, ep;
     if (summary.has_work) {
-      // The identity: E_post(k-1/2) - E_post(-1/2) = sum_{j<k} h F_j^T M^-1 p~_j, exactly. The
-      // energy of p~_k sits half a step of work later: E(p~) = E_post(k-1/2) + (h/2) F_k^T M^-1
-      // p~_k + O(h^2), so it is compared with the work to t_k, W + (h/2)(P_k - P_0).
       summary.work += dt * power;
       power = runner->power();
-      const double w = summary.work;
-      summary.energy_rel_err_max =
-          worst(summary.energy_rel_err_max, balance_error(d.energy, d0.energy, w + 0.5 * dt * (power - power0)));
-      summary.energy_balance_err_max =
-          worst(summary.energy_balance_err_max, balance_error(d.energy_post, d0.energy_post, w));
+      e = balance_error(d.energy, d0.energy, summary.work + 0.5 * dt * (power - power0));
+      ep = balance_error(d.energy_post, d0.energy_post, summary.work);
+      summary.energy_balance_err_max = worst(summary.energy_balance_err_max, ep);
     } else {
-      summary.energy_rel_err_max = worst(summary.energy_rel_err_max, relative_change(d.energy, d0.energy));
-      summary.energy_post_rel_err_max =
-          worst(summary.energy_post_rel_err_max, relative_change(d.energy_post, d0.energy_post));
+      e = relative_change(d.energy, d0.energy);
+      ep = relative_change(d.energy_post, d0.energy_post);
+      summary.energy_post_rel_err_max = worst(summary.energy_post_rel_err_max, ep);
     }
+    summary.energy_rel_err_max = worst(summary.energy_rel_err_max, e);
     if (summary.restarts >= 0) {
       const double a = runner->parasitic();
       if (!std::isnan(a)) summary.parasitic_max = std::isnan(summary.parasitic_max) ? a : std::max(summary.parasitic_max, a);
@@ -323,20 +334,13 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     // Blown up: every energy measure the method has is off by more than its initial value
     // (net of the work). The plain method's period-2 mode moves the energy of p~ by that much
     // while energy_post stays exact, so the smaller of the two decides.
-    if (summary.status == Status::Ok && (!forced || summary.has_work)) {
-      const double w = summary.work;
-      const double e = summary.has_work ? balance_error(d.energy, d0.energy, w + 0.5 * dt * (power - power0))
-                                        : relative_change(d.energy, d0.energy);
-      const double ep = summary.has_work ? balance_error(d.energy_post, d0.energy_post, w)
-                                         : relative_change(d.energy_post, d0.energy_post);
-      const double error = std::isnan(ep) ? e : std::min(e, ep);
-      if (error > kBlowUpEnergyError) {
-        summary.status = Status::BlewUp;
-        std::ostringstream os;
-        os << "the energy changed by " << error << " times its initial value by step " << k << " (t = "
-           << runner->t() << "): the trajectory blew up; reduce --dt";
-        summary.message = os.str();
-      }
+    const double error = std::isnan(ep) ? e : std::min(e, ep);
+    if (summary.status == Status::Ok && (!forced || summary.has_work) && error > kBlowUpEnergyError) {
+      summary.status = Status::BlewUp;
+      std::ostringstream os;
+      os << "the energy changed by " << error << " times its initial value by step " << k << " (t = " << runner->t()
+         << "): the trajectory blew up; reduce --dt";
+      summary.message = os.str();
     }
     if (summary.has_momentum) {
       runner->momentum_maps(j);
