@@ -1,8 +1,9 @@
-// Scaling of the chain step (DESIGN.md section 7, issue 3): ns per body-step of
-// sleigh_chain at N = 10^3 .. 10^6 in both hitch modes, and, on the same C (assembled at the
-// same state), CHOLMOD factor+solve alone and LAPACK dpbtrf+dpbtrs (the banded floor). Also
-// the spring-coupled chain without hitches (C diagonal) through the block-diagonal path and
-// forced through CHOLMOD. tools/scaling.py runs this binary and turns the JSON into the
+// Scaling of the chain step (DESIGN.md section 7, issues 3 and 12): ns per body-step of
+// sleigh_chain at N = 10^3 .. 10^6 in both hitch modes on the fused banded sweep (the default
+// for a chain of elements) and on the general path forced through CHOLMOD, and, on the same C
+// (assembled at the same state), CHOLMOD factor+solve alone, the banded LDL^T's factor+solve
+// alone and LAPACK dpbtrf+dpbtrs. Also the spring-coupled chain without hitches (C diagonal)
+// on the fused sweep, through the block-diagonal path and forced through CHOLMOD. tools/scaling.py runs this binary and turns the JSON into the
 // README's table, ratios and plot; every benchmark reports its N as the counter `bodies`.
 #include <nonholo/rattle.hpp>
 #include <nonholo/scenarios/scene.hpp>
@@ -114,6 +115,14 @@ void ChainStep_OneForm_AutoEveryStep(benchmark::State& s) { restart_loop(s, "aut
 
 void ChainStep_OneForm(benchmark::State& s) { step_loop(s, true, Backend::Auto, HitchMode::OneForm); }
 void ChainStep_Holonomic(benchmark::State& s) { step_loop(s, true, Backend::Auto, HitchMode::Holonomic); }
+// The same steps on the general path (separate passes around CHOLMOD): the "before".
+void ChainStep_OneForm_Cholmod(benchmark::State& s) {
+  step_loop(s, true, Backend::CholmodNatural, HitchMode::OneForm);
+}
+void ChainStep_Holonomic_Cholmod(benchmark::State& s) {
+  step_loop(s, true, Backend::CholmodNatural, HitchMode::Holonomic);
+}
+void SpringChainStep(benchmark::State& s) { step_loop(s, false, Backend::Auto, HitchMode::OneForm); }
 void SpringChainStep_BlockDiagonal(benchmark::State& s) {
   step_loop(s, false, Backend::BlockDiagonal, HitchMode::OneForm);
 }
@@ -133,6 +142,21 @@ void ChainFactorSolve_Cholmod(benchmark::State& s) {
     benchmark::DoNotOptimize(x.data());
   }
   report(s, n, "cholmod-natural");
+}
+
+// The banded LDL^T alone (band filled from C's values, factorised, solved), the general path's
+// use of the banded backend.
+void ChainFactorSolve_Banded(benchmark::State& s) {
+  const long n = s.range(0);
+  Chain& c = chain(n, true, Backend::Auto, HitchMode::OneForm);
+  auto f = sparse::make_factorization(Backend::Banded, c.setup.model.gram().pattern());
+  Vector x(c.rhs.size());
+  for (auto _ : s) {
+    if (f->factorize(c.c_values.data(), 0.0) != sparse::FactorStatus::Ok) s.SkipWithError(f->message());
+    f->solve(c.rhs.data(), x.data());
+    benchmark::DoNotOptimize(x.data());
+  }
+  report(s, n, "banded");
 }
 
 // The banded floor: LAPACK dpbtrf + dpbtrs on the same C in band storage (lower, kd from the
@@ -183,8 +207,12 @@ BENCHMARK(ChainStep_OneForm_PlainMeasured)->Apply(restart_sizes);
 BENCHMARK(ChainStep_OneForm_Auto)->Apply(restart_sizes);
 BENCHMARK(ChainStep_OneForm_AutoEveryStep)->Apply(restart_sizes);
 BENCHMARK(ChainStep_Holonomic)->Apply(sizes);
+BENCHMARK(ChainStep_OneForm_Cholmod)->Apply(sizes);
+BENCHMARK(ChainStep_Holonomic_Cholmod)->Apply(sizes);
 BENCHMARK(ChainFactorSolve_Cholmod)->Apply(sizes);
+BENCHMARK(ChainFactorSolve_Banded)->Apply(sizes);
 BENCHMARK(ChainFactorSolve_LapackBanded)->Apply(sizes);
+BENCHMARK(SpringChainStep)->Apply(sizes);
 BENCHMARK(SpringChainStep_BlockDiagonal)->Apply(sizes);
 BENCHMARK(SpringChainStep_Cholmod)->Apply(sizes);
 

@@ -58,7 +58,7 @@ TEST(Structure, NaturalEnvelopeMeasuresBandedness) {
   }
   EXPECT_EQ(sparse::natural_envelope(pattern_of(10, tri)), 19);
   EXPECT_EQ(sparse::natural_envelope(pattern_of(10, arrow)), 10 + 45);
-  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(10, tri)), Backend::CholmodNatural);
+  EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(10, tri)), Backend::Banded);
   EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(10, arrow)), Backend::CholmodAmd);
   EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(8, arrow8)), Backend::Dense);
   EXPECT_EQ(sparse::resolve_backend(Backend::Auto, pattern_of(20, {})), Backend::BlockDiagonal);
@@ -99,14 +99,15 @@ TEST(BackendChoice, EachSceneGetsTheBackendItsStructureCallsFor) {
     const char* expected;
   };
   const std::vector<Case> cases{
-      {"particle", {}, "dense"},      // one row
-      {"sleigh", {}, "dense"},        // one row
+      {"particle", {}, "dense"},      // one row from a callback
+      {"sleigh", {}, "banded"},       // a knife edge element: the fused step
       {"snakeboard", {}, "dense"},    // two rows on one body: one 2 x 2 block
-      {"sleigh_chain", {"bodies=3"}, "dense"},  // 7 coupled rows
-      {"sleigh_chain", {"bodies=10"}, "cholmod-natural"},     // banded, 28 rows
-      {"sleigh_chain", {"bodies=1000"}, "cholmod-natural"},
-      {"sleigh_chain", {"bodies=1000", "hitched=0", "k=1"}, "block-diagonal"},  // C diagonal
-      {"wheeled_train", {"bodies=200"}, "cholmod-natural"},
+      // Chains of elements are streamed whatever C's structure (DESIGN.md section 7).
+      {"sleigh_chain", {"bodies=3"}, "banded"},
+      {"sleigh_chain", {"bodies=10"}, "banded"},
+      {"sleigh_chain", {"bodies=1000"}, "banded"},
+      {"sleigh_chain", {"bodies=1000", "hitched=0", "k=1"}, "banded"},  // C diagonal
+      {"wheeled_train", {"bodies=200"}, "banded"},
   };
   for (const auto& c : cases) {
     const auto setup = scene(c.scene, c.sets);
@@ -152,13 +153,13 @@ void expect_backends_agree(const std::string& name, const std::vector<std::strin
 
 TEST(BackendChoice, AllBackendsAgreeOnTheSameStep) {
   expect_backends_agree("sleigh_chain", {"bodies=10"},
-                        {Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd});
+                        {Backend::Dense, Backend::Banded, Backend::CholmodNatural, Backend::CholmodAmd});
   expect_backends_agree("wheeled_train", {"bodies=40"},
-                        {Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd});
+                        {Backend::Dense, Backend::Banded, Backend::CholmodNatural, Backend::CholmodAmd});
   expect_backends_agree("sleigh_chain", {"bodies=30", "hitched=0", "k=1"},
-                        {Backend::Dense, Backend::BlockDiagonal, Backend::CholmodNatural, Backend::CholmodAmd});
+                        {Backend::Dense, Backend::BlockDiagonal, Backend::Banded, Backend::CholmodNatural, Backend::CholmodAmd});
   expect_backends_agree("snakeboard", {},
-                        {Backend::Dense, Backend::BlockDiagonal, Backend::CholmodNatural, Backend::CholmodAmd});
+                        {Backend::Dense, Backend::BlockDiagonal, Backend::Banded, Backend::CholmodNatural, Backend::CholmodAmd});
 }
 
 }  // namespace

@@ -236,18 +236,39 @@ TEST(Progress, NothingExtraWhenStderrIsNotATerminal) {
   std::remove(err.c_str());
 }
 
-// On a terminal (a pseudo-terminal from script(1)) a long run draws the bar on stderr.
+// On a terminal (a pseudo-terminal from script(1)) a long run draws the bar on stderr. The
+// run must outlast the bar's first 0.5 s: 1000 steps of 20000 bodies, about 2 s.
 TEST(Progress, DrawnOnATerminal) {
   if (std::system("command -v script > /dev/null 2>&1") != 0) GTEST_SKIP() << "script(1) is not installed";
   const std::string log = temp("tty.txt");
   const std::string cmd = "script -qec '" + std::string(NONHOLO_CLI) +
-                          " run sleigh_chain --set bodies=20000 --t-end 2 > /dev/null' /dev/null > " + log;
+                          " run sleigh_chain --set bodies=20000 --t-end 10 > /dev/null' /dev/null > " + log;
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   const std::string text = slurp(log);
   EXPECT_THAT(text, ::testing::HasSubstr("sleigh_chain [#"));
   EXPECT_THAT(text, ::testing::HasSubstr("%"));
   EXPECT_THAT(text, ::testing::HasSubstr("ETA "));
   std::remove(log.c_str());
+}
+
+// A long set-up (a million bodies takes seconds) shows its phases on the progress line, which
+// is wiped before the steps (NONHOLO_PROGRESS=1 draws it without a terminal): nothing is left
+// behind, not even a newline.
+TEST(Progress, SetUpPhasesAreShownThenWiped) {
+  const std::string err = temp("setup_status.txt");
+  for (const std::string& command : {std::string(" run sleigh_chain --set bodies=300 --t-end 0.05"),
+                                     std::string(" batch sleigh_chain --set bodies=300 --t-end 0.05 --count 2")}) {
+    const std::string cmd = "NONHOLO_PROGRESS=1 " + std::string(NONHOLO_CLI) + command + " > /dev/null 2> " + err;
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << command;
+    const std::string text = slurp(err);
+    EXPECT_THAT(text, ::testing::HasSubstr("\rsetting up sleigh_chain (300 bodies): building model...")) << command;
+    EXPECT_THAT(text, ::testing::HasSubstr("\rsetting up sleigh_chain (300 bodies): analysing C...")) << command;
+    EXPECT_THAT(text, ::testing::HasSubstr("\rsetting up sleigh_chain (300 bodies): starting...")) << command;
+    EXPECT_EQ(text.find('\n'), std::string::npos) << command;
+    ASSERT_FALSE(text.empty());
+    EXPECT_EQ(text.back(), '\r') << command;  // the line wiped, the cursor back at its start
+  }
+  std::remove(err.c_str());
 }
 
 TEST(Progress, EtaIsFormattedAtFixedWidth) {

@@ -143,5 +143,28 @@ TEST(ModelBuilder, AcceptsAModelWithoutOneForms) {
   EXPECT_EQ(m.gram().pattern().size, 0);
 }
 
+// The name table grows past its first sizes and still finds the owner of a name; building
+// from an lvalue twice, or from an rvalue (moved, the builder left empty), gives one model.
+TEST(ModelBuilder, ManyBodiesAndBothWaysToBuild) {
+  ModelBuilder b;
+  for (int i = 0; i < 2000; ++i) {
+    const std::string s = std::to_string(i);
+    b.add_planar_body({"x" + s, "y" + s, "theta" + s}, 1.0 + i, 2.0);
+  }
+  testing::expect_error([&] { b.add_planar_body({"u", "y1234", "v"}, 1.0, 1.0); },
+                        "coordinate name 'y1234' is used by body 1234 and by body 2000 (u, y1234, v)");
+  for (int i = 0; i < 2000; ++i) b.add_knife_edge({i, 0.1 * i});
+  const Model a = b.build(), c = b.build();
+  const Model m = std::move(b).build();
+  for (const Model* x : {&c, &m}) {
+    EXPECT_EQ(x->num_coordinates(), 6000);
+    EXPECT_EQ(x->num_one_forms(), 2000);
+    EXPECT_EQ(x->one_form_pattern().col_idx, a.one_form_pattern().col_idx);
+    EXPECT_EQ(x->coordinate_names(), a.coordinate_names());
+    EXPECT_TRUE(x->is_chain());
+  }
+  testing::expect_error([&] { b.build(); }, "the model has no bodies");  // moved from: empty
+}
+
 }  // namespace
 }  // namespace nonholo

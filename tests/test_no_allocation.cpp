@@ -73,7 +73,8 @@ TEST(NoAllocation, ScenesOnEveryBackend) {
     for (const auto& a : c.sets) p.assign(a);
     const auto setup = info.build(p);
     int served = 0;
-    for (Backend backend : {Backend::BlockDiagonal, Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd})
+    for (Backend backend : {Backend::BlockDiagonal, Backend::Dense, Backend::Banded, Backend::CholmodNatural,
+                             Backend::CholmodAmd})
       for (HitchMode hitch : {HitchMode::OneForm, HitchMode::Holonomic}) {
         if (hitch == HitchMode::OneForm && setup.model.num_holonomic() == 0) continue;
         if (backend == Backend::BlockDiagonal &&

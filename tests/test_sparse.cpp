@@ -126,7 +126,8 @@ RandomSpd random_spd(std::uint32_t seed, int m) {
 // Every backend that accepts the pattern (block-diagonal only when its blocks are small).
 std::vector<std::unique_ptr<sparse::Factorization>> every_backend(const sparse::SymmetricPattern& pattern) {
   std::vector<std::unique_ptr<sparse::Factorization>> out;
-  for (Backend b : {Backend::BlockDiagonal, Backend::Dense, Backend::CholmodNatural, Backend::CholmodAmd}) {
+  for (Backend b : {Backend::BlockDiagonal, Backend::Dense, Backend::Banded, Backend::CholmodNatural,
+                    Backend::CholmodAmd}) {
     try {
       out.push_back(sparse::make_factorization(b, pattern));
       EXPECT_EQ(out.back()->backend(), b);
@@ -294,7 +295,7 @@ TEST(Factorization, BackendNamesAndAutomaticChoice) {
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr(
-        "unknown backend 'lapack' (valid: auto, block-diagonal, dense, cholmod-natural, cholmod-amd)"));
+        "unknown backend 'lapack' (valid: auto, block-diagonal, dense, banded, cholmod-natural, cholmod-amd)"));
   }
   EXPECT_EQ(sparse::resolve_backend(Backend::CholmodAmd, random_spd(1, 2).pattern), Backend::CholmodAmd);
 }

@@ -40,6 +40,17 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h
   return d;
 }
 
+Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& s, double h) {
+  const auto& f = ws.step_diagnostics;
+  if (f.q == nullptr || f.q != s.q.data() || f.steps != s.steps) return diagnose(model, ws, s, h);
+  Diagnostics d;
+  d.energy = f.energy;
+  d.energy_post = f.energy_post;
+  d.residual = f.residual;
+  d.gap = f.gap;
+  return d;
+}
+
 double external_power(const Model& model, Workspace& ws, const State& s) {
   if (!model.has_external_force()) return 0.0;
   model.external_force(s.t, s.q, ws.scratch_n);

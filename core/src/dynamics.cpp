@@ -3,11 +3,17 @@
 #include <cmath>
 #include <limits>
 
+#include "chain_sweep.hpp"
+
 namespace nonholo {
 
 Status one_form_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias) {
   const int m = model.num_one_forms();
   if (m == 0) return Status::Ok;
+  if (ws.sincos_hold(q)) {  // a fused chain step left sin/cos of q: no trigonometry again
+    detail::chain_bias_from_sincos(model, ws, qdot, bias);
+    return Status::Ok;
+  }
   if (model.has_analytic_bias()) {
     model.analytic_bias(q, qdot, bias);
     return Status::Ok;

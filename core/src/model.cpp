@@ -1,5 +1,7 @@
 #include <nonholo/model.hpp>
 
+#include "element_set.hpp"
+
 namespace nonholo {
 
 const std::string& Model::row_label(int r) const {
@@ -11,6 +13,10 @@ std::string Model::describe_row(int r) const {
   const std::string& label = row_label(r);
   return "one-form row " + std::to_string(r) + (label.empty() ? "" : " (" + label + ")");
 }
+
+bool Model::element_set_is_hitched_chain() const { return is_chain() && elements_->hitched_chain; }
+
+bool Model::is_chain() const { return elements_ && !elements_->chain.empty() && num_one_forms() > 0; }
 
 void Model::applied_force(double t, ConstVecRef q, VecRef f, VecRef scratch) const {
   if (force_)

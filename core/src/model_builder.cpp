@@ -3,8 +3,12 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <algorithm>
+#include <cstdint>
+#include <string_view>
 #include <sstream>
 #include <stdexcept>
+
+#include "element_set.hpp"
 
 namespace nonholo {
 namespace {
@@ -32,15 +36,7 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
        << "x" << k << " (one row and column per coordinate)";
     fail(os.str());
   }
-  for (int i = 0; i < k; ++i) {
-    if (names[i].empty()) fail(who() + ": coordinate " + std::to_string(i) + " has an empty name");
-    const auto owner = body_of_name_.find(names[i]);
-    if (owner != body_of_name_.end())
-      fail("coordinate name '" + names[i] + "' is used by body " + std::to_string(owner->second) +
-           " and by " + who());
-    for (int j = 0; j < i; ++j)
-      if (names[j] == names[i]) fail(who() + ": coordinate name '" + names[i] + "' appears twice");
-  }
+  check_names(index, names.data(), k);
   for (int i = 0; i < k; ++i)
     for (int j = 0; j < k; ++j)
       if (!std::isfinite(block(i, j))) {
@@ -92,16 +88,77 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
       os << ", singular within round-off (a condition number of at most " << kMaxCondition << " is needed)";
     fail(os.str());
   }
-  for (const auto& name : names) body_of_name_.emplace(name, index);
-  draft_.bodies_.push_back({static_cast<int>(draft_.names_.size()), k});
+  const int first = static_cast<int>(draft_.names_.size());
+  draft_.bodies_.push_back({first, k});
   draft_.names_.insert(draft_.names_.end(), names.begin(), names.end());
+  for (int i = 0; i < k; ++i) insert_name(first + i);
   draft_.mass_.add_block(symmetric);
   return index;
 }
 
+void ModelBuilder::check_names(int index, const std::string* names, int k) const {
+  auto who = [&] { return describe_body(index, std::vector<std::string>(names, names + k)); };
+  for (int i = 0; i < k; ++i) {
+    if (names[i].empty()) fail(who() + ": coordinate " + std::to_string(i) + " has an empty name");
+    const int owner = find_name(names[i]);
+    if (owner >= 0)
+      fail("coordinate name '" + names[i] + "' is used by body " + std::to_string(body_of_coordinate(owner)) +
+           " and by " + who());
+    for (int j = 0; j < i; ++j)
+      if (names[j] == names[i]) fail(who() + ": coordinate name '" + names[i] + "' appears twice");
+  }
+}
+
+// A slot holds the name's hash in its high 32 bits and coordinate + 1 in its low 32 bits
+// (0: empty): a probe compares hashes and reads a name only when they match, one cache miss
+// per lookup instead of two.
+namespace {
+std::uint64_t name_hash(const std::string& name) { return std::hash<std::string_view>{}(name); }
+}  // namespace
+
+int ModelBuilder::find_name(const std::string& name) const {
+  if (name_slots_.empty()) return -1;
+  const std::uint64_t hash = name_hash(name), tag = hash >> 32;
+  const std::size_t mask = name_slots_.size() - 1;
+  for (std::size_t at = hash & mask;; at = (at + 1) & mask) {
+    const std::uint64_t slot = name_slots_[at];
+    if (slot == 0) return -1;
+    const int coordinate = static_cast<int>(slot & 0xffffffffu) - 1;
+    if ((slot >> 32) == tag && draft_.names_[static_cast<std::size_t>(coordinate)] == name) return coordinate;
+  }
+}
+
+void ModelBuilder::insert_name(int coordinate) {
+  if (2 * (static_cast<std::size_t>(coordinate) + 1) > name_slots_.size()) {  // keep it at most half full
+    std::vector<std::uint64_t> old(std::max<std::size_t>(64, 2 * name_slots_.size()), 0);
+    old.swap(name_slots_);
+    const std::size_t mask = name_slots_.size() - 1;
+    for (std::uint64_t slot : old) {
+      if (slot == 0) continue;
+      const std::uint64_t hash = name_hash(draft_.names_[static_cast<std::size_t>(slot & 0xffffffffu) - 1]);
+      std::size_t at = hash & mask;
+      while (name_slots_[at] != 0) at = (at + 1) & mask;
+      name_slots_[at] = slot;
+    }
+  }
+  const std::uint64_t hash = name_hash(draft_.names_[static_cast<std::size_t>(coordinate)]);
+  const std::size_t mask = name_slots_.size() - 1;
+  std::size_t at = hash & mask;
+  while (name_slots_[at] != 0) at = (at + 1) & mask;
+  name_slots_[at] = ((hash >> 32) << 32) | static_cast<std::uint64_t>(coordinate + 1);
+}
+
+int ModelBuilder::body_of_coordinate(int coordinate) const {
+  const auto& bodies = draft_.bodies_;
+  const auto it = std::upper_bound(bodies.begin(), bodies.end(), coordinate,
+                                   [](int c, const Body& b) { return c < b.offset; });
+  return static_cast<int>(it - bodies.begin()) - 1;
+}
+
 int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, double mass, double inertia) {
-  const std::vector<std::string> list(names.begin(), names.end());
-  auto who = [&] { return describe_body(static_cast<int>(draft_.bodies_.size()), list); };
+  auto who = [&] {
+    return describe_body(static_cast<int>(draft_.bodies_.size()), std::vector<std::string>(names.begin(), names.end()));
+  };
   auto check = [&](const char* what, double value) {
     if (!(value > 0.0) || !std::isfinite(value)) {
       std::ostringstream os;
@@ -111,23 +168,212 @@ int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, doubl
   };
   check("mass m", mass);
   check("moment of inertia I", inertia);
-  return add_body(list, Eigen::Vector3d(mass, mass, inertia).asDiagonal().toDenseMatrix());
+  const double smallest = std::min(mass, inertia), largest = std::max(mass, inertia);
+  if (!(smallest * 1e12 >= largest))  // add_body says why
+    return add_body({names.begin(), names.end()}, Eigen::Vector3d(mass, mass, inertia).asDiagonal().toDenseMatrix());
+  // The common case without add_body's dynamic matrices (a million bodies).
+  const int index = static_cast<int>(draft_.bodies_.size());
+  check_names(index, names.data(), 3);
+  const int first = static_cast<int>(draft_.names_.size());
+  draft_.bodies_.push_back({first, 3});
+  draft_.names_.insert(draft_.names_.end(), names.begin(), names.end());
+  for (int i = 0; i < 3; ++i) insert_name(first + i);
+  const Eigen::Matrix3d block = Eigen::Vector3d(mass, mass, inertia).asDiagonal();
+  draft_.mass_.add_block(block);
+  return index;
+}
+
+void ModelBuilder::reserve(int bodies, int coordinates, int rows, int values) {
+  if (bodies < 0 || coordinates < 0 || rows < 0 || values < 0) fail("reserve: negative size");
+  draft_.bodies_.reserve(static_cast<std::size_t>(bodies));
+  draft_.names_.reserve(static_cast<std::size_t>(coordinates));
+  draft_.mass_.reserve(coordinates);
+  row_ptr_.reserve(static_cast<std::size_t>(rows) + 1);
+  row_cols_.reserve(static_cast<std::size_t>(values));
+  std::size_t slots = 64;
+  while (slots < 2 * static_cast<std::size_t>(coordinates)) slots *= 2;
+  if (slots > name_slots_.size() && draft_.names_.empty()) name_slots_.assign(slots, 0);
+}
+
+int ModelBuilder::add_row(const int* columns, int count, std::string label) {
+  row_cols_.insert(row_cols_.end(), columns, columns + count);
+  row_ptr_.push_back(static_cast<int>(row_cols_.size()));
+  const int row = num_rows() - 1;
+  if (!label.empty()) {
+    draft_.row_labels_.resize(static_cast<std::size_t>(num_rows()));  // stays empty for unlabelled models
+    draft_.row_labels_[static_cast<std::size_t>(row)] = std::move(label);
+  }
+  return row;
 }
 
 int ModelBuilder::add_one_form(const std::vector<int>& columns, std::string label) {
-  rows_.push_back(columns);
-  const int row = static_cast<int>(rows_.size()) - 1;
-  if (!label.empty()) {
-    draft_.row_labels_.resize(rows_.size());  // stays empty for unlabelled models
-    draft_.row_labels_[row] = std::move(label);
-  }
-  return row;
+  return add_row(columns.data(), static_cast<int>(columns.size()), std::move(label));
 }
 
 int ModelBuilder::add_holonomic_row(const std::vector<int>& columns, std::string label) {
   const int row = add_one_form(columns, std::move(label));
   draft_.holonomic_rows_.push_back(row);
   return row;
+}
+
+detail::ElementSet& ModelBuilder::elements() {
+  if (!elements_) elements_ = std::make_shared<detail::ElementSet>();
+  return *elements_;
+}
+
+int ModelBuilder::planar_body(int body, const char* element) const {
+  const int count = static_cast<int>(draft_.bodies_.size());
+  if (body < 0 || body >= count)
+    fail(std::string(element) + ": body " + std::to_string(body) + " is out of range (the model has " +
+         std::to_string(count) + " bodies so far; add the bodies first)");
+  const Body& b = draft_.bodies_[body];
+  if (b.size != 3)
+    fail(std::string(element) + ": body " + std::to_string(body) + " has " + std::to_string(b.size) +
+         " coordinates; elements act on planar bodies (x, y, theta)");
+  return b.offset;
+}
+
+namespace {
+void check_finite(const char* element, const char* what, double value) {
+  if (!std::isfinite(value)) {
+    std::ostringstream os;
+    os << element << ": " << what << " = " << value << " must be finite";
+    fail(os.str());
+  }
+}
+}  // namespace
+
+int ModelBuilder::add_knife_edge(const KnifeEdge& knife, std::string label) {
+  const int o = planar_body(knife.body, "knife edge");
+  check_finite("knife edge", "a", knife.a);
+  auto& set = elements();
+  set.knife_edges.push_back(knife);
+  set.rows.push_back({detail::ElementRow::Knife, static_cast<int>(set.knife_edges.size()) - 1});
+  const int columns[3] = {o, o + 1, o + 2};
+  return add_row(columns, 3, std::move(label));
+}
+
+int ModelBuilder::add_hitch(const Hitch& hitch, std::string label) {
+  const int r = planar_body(hitch.rear, "hitch (rear body)"), f = planar_body(hitch.front, "hitch (front body)");
+  if (hitch.rear == hitch.front) fail("hitch: joins body " + std::to_string(hitch.rear) + " to itself");
+  check_finite("hitch", "d", hitch.d);
+  check_finite("hitch", "f", hitch.f);
+  auto& set = elements();
+  set.hitches.push_back(hitch);
+  const int index = static_cast<int>(set.hitches.size()) - 1;
+  set.rows.push_back({detail::ElementRow::HitchX, index});
+  set.rows.push_back({detail::ElementRow::HitchY, index});
+  // "constraints[3] (hitch of bodies 0 and 1)" labels its rows "... 0 and 1, x)" and ", y)".
+  const auto row_label = [&label](const char* axis) {
+    if (label.empty()) return label;
+    if (label.back() == ')') return label.substr(0, label.size() - 1) + ", " + axis + ")";
+    return label + ", " + axis;
+  };
+  const int x[4] = {r, r + 2, f, f + 2}, y[4] = {r + 1, r + 2, f + 1, f + 2};
+  const int first = add_row(x, 4, row_label("x"));
+  draft_.holonomic_rows_.push_back(first);
+  draft_.holonomic_rows_.push_back(add_row(y, 4, row_label("y")));
+  return first;
+}
+
+void ModelBuilder::add_torsional_spring(const TorsionalSpring& spring) {
+  planar_body(spring.first, "torsional spring");
+  planar_body(spring.second, "torsional spring");
+  if (spring.first == spring.second)
+    fail("torsional spring: joins body " + std::to_string(spring.first) + " to itself");
+  check_finite("torsional spring", "k", spring.k);
+  check_finite("torsional spring", "rest", spring.rest);
+  elements().springs.push_back(spring);
+}
+
+void ModelBuilder::add_thrust(Thrust thrust) {
+  planar_body(thrust.body, "thrust");
+  if (!thrust.force && !thrust.torque) fail("thrust on body " + std::to_string(thrust.body) + ": no force and no torque");
+  elements().thrusts.push_back(std::move(thrust));
+}
+
+// Hands the elements' callbacks to the model and derives the chain layout (element_set.hpp).
+void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementSet> set) const {
+  if (!set) return;
+  const std::size_t element_rows = set->rows.size();
+  const std::size_t rows = static_cast<std::size_t>(model.pattern_.rows);
+  if (element_rows > 0 && element_rows != rows)
+    fail("the model has " + std::to_string(element_rows) + " rows from elements (knife edges, hitches) and " +
+         std::to_string(rows - element_rows) +
+         " from add_one_form: give every row through elements, or every row through add_one_form with "
+         "one_form_values");
+  if (element_rows > 0 && (model.values_ || model.gap_ || model.bias_))
+    fail("the model's rows come from elements (knife edges, hitches), which evaluate their own values, "
+         "bias and gaps: do not also give one_form_values, one_form_bias or gap");
+  if (!set->springs.empty() && model.potential_)
+    fail("torsional springs make the model's potential: do not also give potential()");
+  if (!set->thrusts.empty() && model.force_)
+    fail("thrusts make the model's external force: do not also give external_force()");
+  set->value_offset.assign(model.pattern_.row_ptr.begin(), model.pattern_.row_ptr.end() - 1);
+  for (const Body& b : model.bodies_) set->body_offset.push_back(b.offset);
+  std::stable_sort(set->thrusts.begin(), set->thrusts.end(),
+                   [](const Thrust& a, const Thrust& b) { return a.body < b.body; });
+
+  // The chain layout: planar bodies in order, a diagonal M^-1, rows body by body.
+  const int bodies = model.num_bodies();
+  bool chain = model.inverse_mass_.is_diagonal();
+  for (int b = 0; chain && b < bodies; ++b) chain = model.bodies_[b].size == 3 && model.bodies_[b].offset == 3 * b;
+  if (chain) {
+    set->chain.resize(static_cast<std::size_t>(bodies));
+    const double* w = model.inverse_mass_.diagonal();
+    for (int b = 0; b < bodies; ++b) set->chain[b] = {w[3 * b], w[3 * b + 1], w[3 * b + 2], 0, 0, 0, 0, 0, 0, 0};
+    int at = 0;  // rows may only move on to later bodies, knife edge before hitch
+    for (std::size_t r = 0; chain && r < element_rows; ++r) {
+      const detail::ElementRow& row = set->rows[r];
+      if (row.kind == detail::ElementRow::Knife) {
+        const KnifeEdge& e = set->knife_edges[row.element];
+        auto& cb = set->chain[e.body];
+        chain = e.body >= at && cb.flags == 0;
+        cb.a = e.a;
+        cb.flags |= detail::kChainKnife;
+        at = e.body;
+      } else if (row.kind == detail::ElementRow::HitchX) {
+        const Hitch& h = set->hitches[row.element];
+        chain = h.front == h.rear + 1 && h.rear >= at && !(set->chain[h.rear].flags & detail::kChainHitch);
+        if (!chain) break;
+        auto& cb = set->chain[h.rear];
+        cb.d = h.d;
+        cb.f = h.f;
+        cb.flags |= detail::kChainHitch;
+        at = h.rear;
+      }
+    }
+    for (const TorsionalSpring& s : set->springs) {
+      if (std::abs(s.first - s.second) != 1) chain = false;
+      if (!chain) break;
+      // Written in D = theta_b - theta_{b+1}: a spring from b+1 to b has rest -r in it.
+      const double rest = s.first < s.second ? s.rest : -s.rest;
+      auto& cb = set->chain[std::min(s.first, s.second)];
+      cb.k += s.k;
+      cb.kr += s.k * rest;
+      cb.krr += s.k * rest * rest;
+    }
+    if (!chain) set->chain.clear();
+    set->knife_chain = chain;
+    for (int b = 0; set->knife_chain && b < bodies; ++b) set->knife_chain = set->chain[b].flags == detail::kChainKnife;
+    set->hitched_chain = chain && bodies >= 2;
+    for (int b = 0; set->hitched_chain && b < bodies; ++b)
+      set->hitched_chain = set->chain[b].flags == (b + 1 < bodies ? detail::kChainKnife | detail::kChainHitch
+                                                                   : detail::kChainKnife);
+  }
+
+  const std::shared_ptr<const detail::ElementSet> e = set;
+  if (element_rows > 0) {
+    model.values_ = [e](ConstVecRef q, VecRef mu) { e->values(q, mu); };
+    model.bias_ = [e](ConstVecRef q, ConstVecRef v, VecRef out) { e->bias(q, v, out); };
+    if (!model.holonomic_rows_.empty()) model.gap_ = [e](ConstVecRef q, VecRef g) { e->gap(q, g); };
+  }
+  if (!e->springs.empty()) {
+    model.potential_ = [e](ConstVecRef q) { return e->potential(q); };
+    model.gradient_ = [e](ConstVecRef q, VecRef g) { e->gradient(q, g); };
+  }
+  if (!e->thrusts.empty()) model.force_ = [e](double t, ConstVecRef q, VecRef f) { e->force(t, q, f); };
+  model.elements_ = e;
 }
 
 ModelBuilder& ModelBuilder::gap(ConstraintGap gap) {
@@ -176,39 +422,56 @@ ModelBuilder& ModelBuilder::configuration_metric(MetricValue value, MetricDeriva
   return *this;
 }
 
-Model ModelBuilder::build() const {
-  if (draft_.bodies_.empty()) fail("the model has no bodies");
-  const int n = static_cast<int>(draft_.names_.size());
-  const auto& names = draft_.names_;
+Model ModelBuilder::build() const& {
+  Model draft = draft_;
+  draft.pattern_.row_ptr = row_ptr_;
+  draft.pattern_.col_idx = row_cols_;
+  return finish(std::move(draft), elements_ ? std::make_shared<detail::ElementSet>(*elements_) : nullptr);
+}
 
-  Model model = draft_;
-  if (!model.row_labels_.empty()) model.row_labels_.resize(rows_.size());
+Model ModelBuilder::build() && {
+  Model draft = std::move(draft_);
+  draft.pattern_.row_ptr = std::move(row_ptr_);
+  draft.pattern_.col_idx = std::move(row_cols_);
+  std::shared_ptr<detail::ElementSet> elements = std::move(elements_);
+  *this = ModelBuilder();  // left empty and usable
+  return finish(std::move(draft), std::move(elements));
+}
+
+Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elements) const {
+  if (model.bodies_.empty()) fail("the model has no bodies");
+  const int n = static_cast<int>(model.names_.size());
+  const auto& names = model.names_;
+  const int rows = static_cast<int>(model.pattern_.row_ptr.size()) - 1;
+  if (!model.row_labels_.empty()) model.row_labels_.resize(static_cast<std::size_t>(rows));
   model.inverse_mass_ = model.mass_.inverse();
 
-  model.pattern_.rows = static_cast<int>(rows_.size());
+  model.pattern_.rows = rows;
   model.pattern_.cols = n;
   std::vector<int> sorted;
-  for (std::size_t r = 0; r < rows_.size(); ++r) {
-    auto row = [&] { return draft_.describe_row(static_cast<int>(r)); };  // built only for a message
-    if (rows_[r].empty()) fail(row() + " has no columns (an empty row constrains nothing)");
-    for (int c : rows_[r]) {
+  const auto& ptr = model.pattern_.row_ptr;
+  const auto& cols = model.pattern_.col_idx;
+  for (int r = 0; r < rows; ++r) {
+    auto row = [&] { return model.describe_row(r); };  // built only for a message
+    if (ptr[r + 1] == ptr[r]) fail(row() + " has no columns (an empty row constrains nothing)");
+    for (int k = ptr[r]; k < ptr[r + 1]; ++k) {
+      const int c = cols[k];
       if (c < 0 || c >= n) {
         std::ostringstream os;
         os << row() << ": column " << c << " is out of range (the model has " << n
            << " coordinates, columns 0 to " << n - 1 << ")";
         fail(os.str());
       }
-      model.pattern_.col_idx.push_back(c);
     }
-    sorted.assign(rows_[r].begin(), rows_[r].end());
+    sorted.assign(cols.begin() + ptr[r], cols.begin() + ptr[r + 1]);
     std::sort(sorted.begin(), sorted.end());
     const auto twice = std::adjacent_find(sorted.begin(), sorted.end());
     if (twice != sorted.end())
       fail(row() + ": column " + std::to_string(*twice) + " (" + names[*twice] + ") appears twice");
-    model.pattern_.row_ptr.push_back(model.pattern_.nnz());
   }
-  if (!rows_.empty() && !model.values_)
-    fail("the model has " + std::to_string(rows_.size()) +
+  build_elements(model, std::move(elements));
+  if (rows > 0 && !model.values_)
+    fail("the model has " + std::to_string(rows) +
          " one-form rows but no value function (call one_form_values)");
   if (!model.holonomic_rows_.empty() && !model.gap_)
     fail("the model has " + std::to_string(model.holonomic_rows_.size()) +

@@ -20,6 +20,7 @@
 #include <stdexcept>
 
 #include "callback_guard.hpp"
+#include "chain_sweep.hpp"
 #include "option_checks.hpp"
 #include "rattle_internal.hpp"
 #include "restart_internal.hpp"
@@ -116,9 +117,17 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
                    size, s.t, floor, o.gap_tolerance_limit);
   const double tolerance = std::max(o.gap_tolerance, floor);
   ws.gap_multiplier.setZero();
+  // A chain of knife edges and hitches: each gap pass and correction in one pass over the
+  // bodies (chain_sweep.cpp); the last gap pass leaves sin/cos of q_{k+1} for the sweep.
+  const bool chain = ws.fused() && model.element_set_is_hitched_chain();
   for (int it = 0;; ++it) {
-    model.gap(ws.q_next, ws.gap);
-    const double worst = ws.gap.lpNorm<Eigen::Infinity>();
+    double worst;
+    if (chain) {
+      worst = detail::chain_gap_rhs(model, ws, -2.0 / (h * h));
+    } else {
+      model.gap(ws.q_next, ws.gap);
+      worst = ws.gap.lpNorm<Eigen::Infinity>();
+    }
     if (!std::isfinite(worst))
       return ws.fail(Status::NonFiniteState, "hitch gap is %g after %d corrections", worst, it);
     if (worst <= tolerance) {
@@ -126,10 +135,16 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
       return Status::Ok;
     }
     if (it == o.max_gap_iterations) return gap_failure(model, ws, s, o, h, worst, it, tolerance);
-    ws.rhs.setZero();
-    for (int j = 0; j < count; ++j) ws.rhs[rows[j]] = (-2.0 / (h * h)) * ws.gap[j];
+    if (!chain) {
+      ws.rhs.setZero();
+      for (int j = 0; j < count; ++j) ws.rhs[rows[j]] = (-2.0 / (h * h)) * ws.gap[j];
+    }
     if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
     ws.gap_multiplier += ws.scratch_m;
+    if (chain) {
+      detail::chain_gap_correction(model, ws, ws.scratch_m.data(), h);
+      continue;
+    }
     model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
     ws.p_half += (0.5 * h) * ws.scratch_n;
     model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
@@ -195,16 +210,33 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
 
 namespace detail {
 
+Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h,
+                   double t_next, ModeWatch* watch, double check, bool fused);
+
 Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h, double t_next,
                ModeWatch* watch) {
   const int n = model.num_coordinates(), m = model.num_one_forms();
   const double half = 0.5 * h;
   const auto& minv = model.inverse_mass();
 
+  ws.step_diagnostics.q = nullptr;
+  ws.gap_iterations = 0;
+  const bool holonomic = options.hitch == HitchMode::Holonomic && model.num_holonomic() > 0;
+  double check = 0.0;  // NaN or Inf anywhere in the new state makes this non-finite
+  if (ws.fused()) {  // a chain of elements: two sweeps over the bodies (chain_sweep.cpp)
+    const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
+    if (holonomic) {
+      kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
+      const Status status = enforce_gaps(model, ws, s, options, h);
+      if (status != Status::Ok) return status;
+    }
+    const Status status = chain_sweep(model, ws, s, options, h, t_next, holonomic, check);
+    if (status != Status::Ok) return status;
+    return finish_step(model, ws, s, options, h, t_next, watch, check, true);
+  }
   // Half kick with the forces at t_k, then drift.
   kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
-  ws.gap_iterations = 0;
-  if (options.hitch == HitchMode::Holonomic && model.num_holonomic() > 0) {
+  if (holonomic) {
     const Status status = enforce_gaps(model, ws, s, options, h);
     if (status != Status::Ok) return status;
     minv.multiply(ws.p_half.data(), ws.velocity.data());
@@ -221,7 +253,6 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
   const double* ph = forced ? ws.p_hat.data() : ws.p_half.data();
 
   // Constraint half kick: the multipliers that put p~_{k+1} in the annihilator of D.
-  double check = 0.0;  // NaN or Inf anywhere in the new state makes this non-finite
   if (m > 0) {
     Status status = ws.evaluate_one_forms(ws.q_next);
     if (status == Status::Ok) status = ws.factorize(options.min_pivot_ratio);
@@ -252,6 +283,14 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
     ws.p_next = forced ? ws.p_hat : ws.p_half;
     check = ws.q_next.sum() + ws.p_next.sum() + ws.force_next.sum();
   }
+  return finish_step(model, ws, s, options, h, t_next, watch, check, false);
+}
+
+// The new state is in ws.q_next, p_next, lambda, force_next: check it, control the period-2
+// mode, commit.
+Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h,
+                   double t_next, ModeWatch* watch, double check, bool fused) {
+  const int m = model.num_one_forms();
   if (!std::isfinite(check))
     return ws.fail(Status::NonFiniteState,
                    "the step from t = %.17g produced NaN or Inf: reduce the step size (h = %g) or "
@@ -268,6 +307,7 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
 
   s.t = t_next;
   // Commit by exchanging buffers (no copy: a million-body state is 72 MB).
+  if (fused && !ws.restarted) ws.step_diagnostics.q = ws.q_next.data();  // the buffer s.q gets
   s.q.swap(ws.q_next);
   s.p.swap(ws.p_next);
   s.lambda.swap(ws.lambda);
@@ -295,7 +335,11 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
                    "the explicit step needs a constant metric; use implicit_step (implicit.hpp)");
   if (const detail::OptionProblem p = detail::rattle_problem(options))
     return ws.fail(Status::InvalidOptions, "RattleOptions: %s = %g %s", p.what, p.value, p.rule);
-  if (options.order != 2 || options.composition != Composition::Auto) return detail::composed_step(model, ws, s, options);
+  if (options.order != 2 || options.composition != Composition::Auto) {
+    const Status status = detail::composed_step(model, ws, s, options);
+    ws.step_diagnostics.q = nullptr;  // its end may restart; diagnose_step computes afresh
+    return status;
+  }
 
   ModeWatch watch = s.watch;
   const Status status = detail::guard_callbacks(
@@ -303,6 +347,7 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
   if (status != Status::Ok) return status;
   s.grid.advance();
   ++s.steps;
+  ws.step_diagnostics.steps = s.steps;
   if (ws.restarted) ++s.restarts;
   s.watch = watch;
   ws.clear_message();

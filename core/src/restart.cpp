@@ -40,6 +40,8 @@ Status solve_negated(Workspace& ws, Vector& rhs, double* lambda) {
 // others, becomes 0). For p with M^-1 p in D, J_j(q, p) = xi_j^T p = (P xi_j)^T p. Also
 // records J_j(q, p) and the scale sum_i |xi_ji p_i| in ws.map_values.
 Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p) {
+  // mu(q) is cached (the step that arrived at q left it, or its sin/cos for a fused step).
+  if (const Status status = ws.evaluate_one_forms(q); status != Status::Ok) return status;
   const auto& maps = model.momentum_maps();
   const int n = model.num_coordinates(), r = static_cast<int>(maps.size());
   Eigen::MatrixXd& xi = ws.map_directions;
@@ -143,8 +145,11 @@ void plan_after_restart(const RestartOptions& o, ModeWatch& w, long now) {
 Status continuous_multiplier_at(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p,
                                 ConstVecRef applied) {
   const auto& minv = model.inverse_mass();
+  // mu(q) and C(q) are cached: the step that arrived at q left them (a fused step its sin/cos).
+  Status status = ws.evaluate_one_forms(q);
+  if (status != Status::Ok) return status;
   minv.multiply(p.data(), ws.velocity.data());
-  Status status = one_form_bias(model, ws, q, ws.velocity, ws.rhs);
+  status = one_form_bias(model, ws, q, ws.velocity, ws.rhs);
   if (status != Status::Ok) return status;
   if (model.has_applied_force()) {
     minv.multiply(applied.data(), ws.scratch_n.data());
@@ -250,7 +255,8 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
 
 Status project_energy(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, double target) {
   const bool maps = !model.momentum_maps().empty() && model.num_one_forms() > 0;
-  Status status = Status::Ok;
+  Status status = ws.evaluate_one_forms(q);  // cached; see continuous_multiplier_at
+  if (status != Status::Ok) return status;
   double kept = 0.0, scaled = 0.0;  // kinetic energies of p_J and p_r
   if (maps) {
     if ((status = split_by_maps(model, ws, q, p)) != Status::Ok) return status;

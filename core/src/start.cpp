@@ -49,16 +49,28 @@ void check_time(double t0) {
   }
 }
 
+// A workspace scratch vector of this size, or (if the workspace has none that size) `local`
+// resized: the checks below reuse the workspace's buffers instead of allocating their own
+// (a million-body chain would otherwise allocate and touch some 150 MB more at its start).
+Vector& sized_buffer(Vector& buffer, Vector& local, Eigen::Index size) {
+  if (buffer.size() == size) return buffer;
+  local.resize(size);
+  return local;
+}
+
 // Each callback, evaluated once at (t0, q0) into NaN-filled output, must fill every entry:
 // one that fills too few values would otherwise leave the previous call's numbers there and
-// go unseen (debug builds also NaN-fill mu before every evaluation, workspace.cpp).
-void check_callbacks_fill(const Model& model, double t0, ConstVecRef q0) {
+// go unseen (debug builds also NaN-fill mu before every evaluation, workspace.cpp). The
+// outputs go to the workspace's scratch buffers (clobbered; the one-form cache is untouched).
+void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVecRef q0) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const int n = model.num_coordinates();
   const auto& names = model.coordinate_names();
   auto complain = [](const std::string& what) { throw std::invalid_argument("start: " + what); };
+  Vector local, local2;
   if (model.num_one_forms() > 0) {
-    Vector mu = Vector::Constant(model.num_one_form_values(), nan);
+    Vector& mu = sized_buffer(ws.scratch_nnz, local, model.num_one_form_values());
+    mu.setConstant(nan);
     model.one_form_values(q0, mu);
     const auto& pattern = model.one_form_pattern();
     for (int r = 0; r < pattern.rows; ++r)
@@ -68,8 +80,11 @@ void check_callbacks_fill(const Model& model, double t0, ConstVecRef q0) {
                    names[pattern.col_idx[k]] + ") unset or NaN at q0: it must fill all " +
                    std::to_string(pattern.nnz()) + " values, row by row in the order of each row's columns");
     if (model.has_analytic_bias()) {
-      Vector bias = Vector::Constant(model.num_one_forms(), nan);
-      model.analytic_bias(q0, Vector::Zero(n), bias);
+      Vector& bias = sized_buffer(ws.scratch_m, local, model.num_one_forms());
+      Vector& zero = sized_buffer(ws.scratch_n2, local2, n);
+      bias.setConstant(nan);
+      zero.setZero();
+      model.analytic_bias(q0, zero, bias);
       for (int r = 0; r < model.num_one_forms(); ++r)
         if (std::isnan(bias[r]))
           complain("one_form_bias left entry " + std::to_string(r) + " (" + model.describe_row(r) +
@@ -77,7 +92,8 @@ void check_callbacks_fill(const Model& model, double t0, ConstVecRef q0) {
     }
   }
   if (model.num_holonomic() > 0) {
-    Vector g = Vector::Constant(model.num_holonomic(), nan);
+    Vector& g = sized_buffer(ws.gap, local, model.num_holonomic());
+    g.setConstant(nan);
     model.gap(q0, g);
     for (int j = 0; j < g.size(); ++j)
       if (std::isnan(g[j]))
@@ -85,8 +101,11 @@ void check_callbacks_fill(const Model& model, double t0, ConstVecRef q0) {
                  ") unset or NaN at q0");
   }
   if (model.has_applied_force()) {
-    Vector f = Vector::Constant(n, nan), scratch = Vector::Constant(n, nan);
-    model.applied_force(t0, q0, f, scratch);
+    Vector& f = sized_buffer(ws.applied, local, n);
+    Vector& work = sized_buffer(ws.scratch_n, local2, n);
+    f.setConstant(nan);
+    work.setConstant(nan);
+    model.applied_force(t0, q0, f, work);
     for (int i = 0; i < n; ++i)
       if (std::isnan(f[i]))
         complain(std::string(model.has_external_force() ? "the external force or the potential gradient"
@@ -102,21 +121,28 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
   check_time(t0);
   check_vector("q0", q0, model);
   check_vector("the velocity guess", v_guess, model);
-  check_callbacks_fill(model, t0, q0);
+  check_callbacks_fill(model, ws, t0, q0);
   State s = allocate_state(model, t0, q0);
 
   model.mass().multiply(v_guess.data(), s.p.data());
   check(project_momentum(model, ws, s.q, s.p, s.p, options.min_pivot_ratio), ws,
         "projecting the velocity onto D(q0)");
 
-  Vector v(model.num_coordinates());
+  // The velocity M^-1 p~_0 is held in s.force until the force itself is computed, and the
+  // workspace's scratch serves below (no state-sized temporaries: a million-body chain's start
+  // would touch 48 MB more).
+  Vector& v = s.force;
   model.inverse_mass().multiply(s.p.data(), v.data());
   if (options.multiplier == InitialMultiplier::Continuous)
     check(constraint_multiplier(model, ws, t0, s.q, v, s.lambda, options.min_pivot_ratio), ws,
           "computing the continuous multiplier at q0");
 
-  Vector scratch(model.num_coordinates());
-  if (model.has_applied_force()) model.applied_force(t0, s.q, s.force, scratch);
+  Vector local;
+  Vector& scratch = sized_buffer(ws.scratch_n, local, model.num_coordinates());
+  if (model.has_applied_force())
+    model.applied_force(t0, s.q, s.force, scratch);
+  else
+    s.force.setZero();
   if (model.num_one_forms() > 0) {
     check(ws.evaluate_one_forms(s.q), ws, "evaluating the one-forms at q0");
     model.mu_transpose_times(ws.mu_values.data(), s.lambda.data(), scratch.data());
@@ -130,7 +156,7 @@ State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstV
   check_time(t0);
   check_vector("q0", q0, model);
   check_vector("q1", q1, model);
-  check_callbacks_fill(model, t0, q0);
+  check_callbacks_fill(model, ws, t0, q0);
   if (!(h > 0.0) || !std::isfinite(h)) {
     std::ostringstream os;
     os << "start: step size h = " << h << " must be positive and finite";

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <limits>
 
+#include "chain_sweep.hpp"
+
 namespace nonholo {
 
 Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : model_(&model) {
@@ -14,7 +16,9 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
     v->setZero(n);
   mu_values.setZero(model.num_one_form_values());
   scratch_nnz.setZero(model.num_one_form_values());
-  scratch_nnz2.setZero(model.num_one_form_values());
+  // The bias by central differences needs a second copy of mu (dynamics.cpp); a model with its
+  // own bias (every element model) does not: 88 MB less for a million-body chain.
+  if (!model.has_analytic_bias()) scratch_nnz2.setZero(model.num_one_form_values());
   rhs.setZero(m);
   lambda.setZero(m);
   scratch_m.setZero(m);
@@ -36,7 +40,11 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
     saved_force.setZero(n);
     saved_lambda.setZero(m);
   }
-  if (m > 0) factor_ = sparse::make_factorization(options.backend, model.gram().pattern());
+  sparse::Backend backend = options.backend;
+  if (backend == sparse::Backend::Auto && model.is_chain()) backend = sparse::Backend::Banded;
+  if (m > 0) factor_ = sparse::make_factorization(backend, model.gram().pattern());
+  if (factor_ && factor_->backend() == sparse::Backend::Banded) banded_ = static_cast<sparse::BandedLdlt*>(factor_.get());
+  if (fused()) chain_sincos.setZero(2 * model.num_bodies());
   // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
   if (factor_ && !factor_->values_in_place()) c_values.setZero(model.gram().pattern().nnz());
 }
@@ -51,9 +59,17 @@ const char* Workspace::backend_name() const {
 
 Status Workspace::evaluate_one_forms(ConstVecRef q) {
   const int n = model_->num_coordinates();
-  if (mu_valid_ && std::memcmp(q.data(), mu_q_.data(), sizeof(double) * n) == 0) return Status::Ok;
-  mu_valid_ = false;
-  factor_valid_ = false;
+  if (key_valid_ && std::memcmp(q.data(), mu_q_.data(), sizeof(double) * n) == 0) {
+    if (!mu_valid_) {  // a fused step factorised C(q) without writing mu: it left sin/cos
+      if (sincos_valid_)
+        detail::chain_one_forms_from_sincos(*model_, *this);
+      else  // a holonomic correction since reused chain_sincos for q_{k+1}
+        model_->one_form_values(q, mu_values);
+      mu_valid_ = true;
+    }
+    return Status::Ok;
+  }
+  key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = false;
   if (model_->num_one_forms() == 0) return Status::Ok;
 #ifndef NDEBUG
   // Debug builds: a value function that fills too few values leaves NaN, which factorize()
@@ -64,8 +80,13 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
   // NaN or Inf in mu reaches a diagonal entry of C, so factorize() finds it; the scan that
   // names the entry runs only then (one pass less over mu in every step).
   mu_q_ = q;
-  mu_valid_ = true;
+  key_valid_ = mu_valid_ = true;
   return Status::Ok;
+}
+
+bool Workspace::sincos_hold(ConstVecRef q) const {
+  return sincos_valid_ && key_valid_ &&
+         std::memcmp(q.data(), mu_q_.data(), sizeof(double) * model_->num_coordinates()) == 0;
 }
 
 Status Workspace::report_non_finite_one_forms() {
@@ -102,8 +123,17 @@ Status Workspace::factorize(double min_pivot_ratio) {
     model_->gram().assemble(mu_values.data(), c_values.data());
     s = factor_->factorize(c_values.data(), min_pivot_ratio);
   }
+  if (s == FactorStatus::Ok) {
+    factor_valid_ = true;
+    return Status::Ok;
+  }
+  return report_factor_failure(s);
+}
+
+Status Workspace::report_factor_failure(sparse::FactorStatus s) {
+  using sparse::FactorStatus;
   switch (s) {
-    case FactorStatus::Ok: factor_valid_ = true; return Status::Ok;
+    case FactorStatus::Ok: return Status::Ok;
     case FactorStatus::NotPositiveDefinite:
       return fail(Status::DependentOneForms,
                   "%s%s: remove a redundant constraint, or change the step size if the motion only "

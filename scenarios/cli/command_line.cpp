@@ -47,7 +47,7 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
       ->take_all()
       ->allow_extra_args(false);
   cmd->add_option("--backend", o.backend,
-                  "factorisation of C: auto, block-diagonal, dense, cholmod-natural, cholmod-amd");
+                  "factorisation of C: auto, block-diagonal, dense, banded, cholmod-natural, cholmod-amd");
   cmd->add_option("--hitch", o.hitch, "hitches: holonomic (position level, default) or oneform");
   cmd->add_option("--method", o.config.method,
                   "reflection (default), dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner (the "

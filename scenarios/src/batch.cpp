@@ -43,6 +43,7 @@ struct Row {
   RunSummary summary;
   std::vector<double> values;  // the varied parameters
   Vector final_q;
+  std::vector<std::string> names;  // body 0's coordinates (first three), once set up
   std::string error;
 };
 
@@ -88,7 +89,9 @@ BatchResult run_batch(const BatchConfig& config) {
       p.set(v.name, x);
       row.values.push_back(x);
     }
-    row.summary = integrate_scene(prepared, p, run_config, nullptr, &row.final_q);
+    // The first trajectory shows the phases of its set-up until the bar replaces them.
+    row.summary = integrate_scene(prepared, p, run_config, nullptr, &row.final_q, i == 0 ? &progress : nullptr,
+                                  &row.names);
     progress.add(1);
   });
   progress.finish();
@@ -154,11 +157,21 @@ BatchResult run_batch(const BatchConfig& config) {
   agg.ns_per_body_step = agg.bodies > 0 ? agg.ns_per_step / agg.bodies : 0.0;
 
   if (out.is_open()) {
-    // Header: trajectory, varied parameters, final time, body 0's coordinates, the errors.
-    std::vector<std::string> names{"q0", "q1", "q2"};
-    try {
-      names = prepared.info.build(base).model.coordinate_names();
-    } catch (const std::exception&) {  // the fixed parameters alone are not a valid scene
+    // Header: trajectory, varied parameters, final time, body 0's coordinates, the errors. The
+    // names come from a trajectory that was set up (no model is built again just for them: a
+    // large one takes seconds); if none was, from the fixed parameters alone.
+    std::vector<std::string> names;
+    for (const Row& r : rows)
+      if (!r.names.empty()) {
+        names = r.names;
+        break;
+      }
+    if (names.empty()) {
+      names = {"q0", "q1", "q2"};
+      try {
+        names = prepared.info.build(base).model.coordinate_names();
+      } catch (const std::exception&) {  // the fixed parameters alone are not a valid scene
+      }
     }
     const std::size_t shown = std::min<std::size_t>(3, names.size());
     out << "trajectory";

@@ -40,32 +40,38 @@ double relative_change(double value, double reference) {
   return reference != 0.0 ? diff / std::abs(reference) : diff;
 }
 
-// CSV rows with shortest round-trip formatting, so no digit of the state is lost.
+// CSV rows with shortest round-trip formatting, so no digit of the state is lost. A row is
+// formatted into a fixed buffer and written whenever that fills (a row of a million-body chain
+// has three million numbers: no buffer of its size).
 class CsvWriter {
  public:
-  // A double takes at most 24 characters with to_chars; 32 leaves room for the comma.
-  CsvWriter(const std::string& path, const std::vector<std::string>& coordinates)
-      : path_(path), buffer_(32 * (coordinates.size() + 4)) {
+  CsvWriter(const std::string& path, const std::vector<std::string>& coordinates) : path_(path) {
     file_ = std::fopen(path.c_str(), "w");
     if (!file_)
       throw std::invalid_argument("cannot open '" + path + "' for writing: " + std::strerror(errno));
     std::string header = "t";
-    for (const auto& c : coordinates) header += "," + c;
+    for (const auto& c : coordinates) {
+      if (header.size() > kBuffer) {  // in pieces, as the rows
+        write(header.data(), header.size());
+        header.clear();
+      }
+      header.append(1, ',').append(c);
+    }
     header += ",energy,energy_post,residual\n";
-    std::fputs(header.c_str(), file_);
+    write(header.data(), header.size());
   }
   ~CsvWriter() {
     if (file_) std::fclose(file_);
   }
   void row(double t, ConstVecRef q, const Diagnostics& d) {
-    char* p = buffer_.data();
+    char* p = buffer_;
     put(p, t);
     for (Eigen::Index i = 0; i < q.size(); ++i) put(p, q[i]);
     put(p, d.energy);
     put(p, d.energy_post);
     put(p, d.residual);
     p[-1] = '\n';
-    std::fwrite(buffer_.data(), 1, static_cast<std::size_t>(p - buffer_.data()), file_);
+    write(buffer_, static_cast<std::size_t>(p - buffer_));
   }
   // Flushes and reports a write error (disk full, ...) as an exception.
   void close() {
@@ -76,13 +82,20 @@ class CsvWriter {
   }
 
  private:
-  static void put(char*& p, double v) {
-    p = std::to_chars(p, p + 32, v).ptr;
+  // A double takes at most 24 characters with to_chars; 32 leaves room for the comma.
+  static constexpr std::size_t kField = 32, kBuffer = 1 << 16;
+  void write(const char* data, std::size_t size) { std::fwrite(data, 1, size, file_); }
+  void put(char*& p, double v) {
+    if (p + kField > buffer_ + sizeof buffer_) {  // full: write what is there (never the whole row)
+      write(buffer_, static_cast<std::size_t>(p - buffer_));
+      p = buffer_;
+    }
+    p = std::to_chars(p, p + kField, v).ptr;
     *p++ = ',';
   }
   std::string path_;
   std::FILE* file_ = nullptr;
-  std::vector<char> buffer_;
+  char buffer_[kBuffer];
 };
 
 // The energy error net of the work done by external forces, relative to the largest of the
@@ -213,23 +226,42 @@ PreparedRun prepare_run(const RunConfig& config) {
 }
 
 RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
-                           Progress* progress, Vector* final_q) {
+                           Progress* progress, Vector* final_q, Progress* setup_status,
+                           std::vector<std::string>* leading_names) {
   const SceneInfo& info = run.info;
   const MethodChoice& choice = run.choice;
   const double dt = run.dt;
   const long steps = run.steps;
   const bool reflection = config.method == "reflection";
 
+  // "setting up sleigh_chain (1000000 bodies): building model...": the body count from the
+  // parameters until the model says.
+  long bodies = -1;
+  for (const auto& spec : params.specs())
+    if (spec.name == "bodies") bodies = std::lround(params["bodies"]);
+  auto set_up = [&](const char* phase) {
+    if (!setup_status) return;
+    std::string line = "setting up " + info.name;
+    if (bodies > 0) line += " (" + std::to_string(bodies) + (bodies == 1 ? " body)" : " bodies)");
+    setup_status->status(line + ": " + phase + "...");
+  };
+  set_up("building model");
   SceneSetup setup = info.build(params);
   const Model& model = setup.model;
+  bodies = model.num_bodies();
+  if (leading_names) {
+    const auto& names = model.coordinate_names();
+    leading_names->assign(names.begin(), names.begin() + std::min<std::size_t>(3, names.size()));
+  }
+  const SetupPhase phase = [&](const char* what) { set_up(what); };
   std::unique_ptr<Runner> runner;
   try {
-    runner = make_runner(setup, choice);
+    runner = make_runner(setup, choice, phase);
   } catch (const std::invalid_argument& e) {  // a scene file's start: name the file
     if (!is_scene_file(config.scene)) throw;
     throw std::invalid_argument(config.scene + ": " + e.what());
   }
-  std::unique_ptr<Runner> companion = config.error_estimate ? make_runner(setup, run.companion.choice) : nullptr;
+  std::unique_ptr<Runner> companion = config.error_estimate ? make_runner(setup, run.companion.choice, phase) : nullptr;
   double companion_s = 0.0;
   double difference = 0.0;  // max over the output times of |q - q^|_inf
   std::string companion_failure;
@@ -282,6 +314,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
 
   double output_s = 0.0;
   const double t0 = runner->t();
+  if (progress) progress->begin_steps();
   const auto loop_start = Clock::now();
   for (long k = 1; k <= steps && summary.status == Status::Ok; ++k) {
     const double t_before = runner->t();
@@ -406,7 +439,7 @@ RunSummary run_scene(const RunConfig& config) {
   Parameters params = run.info.defaults();
   for (const auto& a : config.assignments) params.assign(a);
   Progress progress(run.info.name, run.steps);
-  RunSummary summary = integrate_scene(run, params, config, &progress, nullptr);
+  RunSummary summary = integrate_scene(run, params, config, &progress, nullptr, &progress);
   progress.finish();
   summary.wall_s = seconds_since(start_time);
   return summary;

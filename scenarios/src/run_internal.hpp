@@ -6,6 +6,9 @@
 #include "progress.hpp"
 #include "runners.hpp"
 
+#include <string>
+#include <vector>
+
 namespace nonholo::scenarios {
 
 // max that lets a NaN through instead of hiding it (a blown-up trajectory must show).
@@ -25,7 +28,11 @@ struct PreparedRun {
 PreparedRun prepare_run(const RunConfig& config);
 // One trajectory of the prepared run with these parameters: the summary (wall_s left 0),
 // the CSV if config.csv_path is set, and the final configuration if final_q is given.
+// `progress` (may be null) gets the steps done and is restarted when they begin; `setup_status` (may
+// be null, may be the same) shows the phases of the set-up (Progress::status); `leading_names`
+// (if given) receives the first three coordinate names of the model (fewer if it has fewer).
 RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
-                           Progress* progress, Vector* final_q);
+                           Progress* progress, Vector* final_q, Progress* setup_status = nullptr,
+                           std::vector<std::string>* leading_names = nullptr);
 
 }  // namespace nonholo::scenarios

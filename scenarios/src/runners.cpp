@@ -12,18 +12,25 @@
 namespace nonholo::scenarios {
 namespace {
 
+void announce(const SetupPhase& phase, const char* what) {
+  if (phase) phase(what);
+}
+
 class ReflectionRunner final : public Runner {
  public:
-  ReflectionRunner(const SceneSetup& setup, const MethodChoice& c)
-      : model_(setup.model), ws_(setup.model, {c.backend, c.rattle.order > 2}), options_(c.rattle),
-        state_(start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0)) {}
+  ReflectionRunner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase)
+      : model_(setup.model), ws_(setup.model, {c.backend, c.rattle.order > 2}), options_(c.rattle) {
+    announce(phase, "starting");
+    state_ = start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0);
+  }
   Status advance(double) override { return step(model_, ws_, state_, options_); }
   double t() const override { return state_.t; }
   ConstVecRef q() const override { return state_.q; }
   // Composed steps restart lambda~ at their end: the post-momentum of a composed step is not
   // defined (nor an invariant), so energy_post is NaN there.
   Diagnostics diagnostics() override {
-    Diagnostics d = diagnose(model_, ws_, state_, options_.h);
+    // The fused chain step computed them in its sweeps (diagnose_step); others diagnose here.
+    Diagnostics d = diagnose_step(model_, ws_, state_, options_.h);
     if (options_.order > 2) d.energy_post = std::numeric_limits<double>::quiet_NaN();
     return d;
   }
@@ -45,11 +52,12 @@ class ReflectionRunner final : public Runner {
 
 class DlaRunner final : public Runner {
  public:
-  DlaRunner(const SceneSetup& setup, const MethodChoice& c, DlaConstraint constraint)
+  DlaRunner(const SceneSetup& setup, const MethodChoice& c, DlaConstraint constraint, const SetupPhase& phase)
       : model_(setup.model), ws_(setup.model, {c.backend, false}) {
     options_.h = c.rattle.h;
     options_.constraint = constraint;
     validate(options_);
+    announce(phase, "starting");
     state_ = dla_start(start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0), options_.h);
   }
   Status advance(double) override { return dla_step(model_, ws_, state_, options_); }
@@ -95,10 +103,12 @@ class DlaRunner final : public Runner {
 // The general implicit form, for models with a configuration-dependent metric.
 class ImplicitRunner final : public Runner {
  public:
-  ImplicitRunner(const SceneSetup& setup, const MethodChoice& c) : model_(setup.model), ws_(setup.model) {
+  ImplicitRunner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase)
+      : model_(setup.model), ws_(setup.model) {
     options_.h = c.rattle.h;
     options_.min_pivot_ratio = c.rattle.min_pivot_ratio;
     options_.restart = c.rattle.restart;
+    announce(phase, "starting");
     state_ = implicit_start(model_, ws_, setup.t0, setup.q0, setup.v0, options_);
     average_.setZero(model_.num_coordinates());
     reflected_.setZero(model_.num_coordinates());
@@ -141,8 +151,9 @@ class ImplicitRunner final : public Runner {
 };
 
 // The velocity of the consistent start, M^-1 p~_0, in D(q0).
-Vector started_velocity(const SceneSetup& setup, sparse::Backend backend) {
+Vector started_velocity(const SceneSetup& setup, sparse::Backend backend, const SetupPhase& phase) {
   Workspace ws(setup.model, {backend, false});
+  announce(phase, "starting");
   const State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
   Vector v(s.p.size());
   setup.model.inverse_mass().multiply(s.p.data(), v.data());
@@ -157,10 +168,11 @@ reference::Options with_backend(const MethodChoice& c) {
 
 class ReferenceRunner final : public Runner {
  public:
-  ReferenceRunner(const SceneSetup& setup, reference::Method method, const MethodChoice& c)
+  ReferenceRunner(const SceneSetup& setup, reference::Method method, const MethodChoice& c, const SetupPhase& phase)
       : model_(setup.model),
         method_(method),
-        integrator_(setup.model, method, with_backend(c), setup.t0, setup.q0, started_velocity(setup, c.backend)),
+        integrator_(setup.model, method, with_backend(c), setup.t0, setup.q0,
+                    started_velocity(setup, c.backend, phase)),
         p_(setup.model.num_coordinates()) {}
   Status advance(double t_next) override { return integrator_.advance_to(t_next); }
   double t() const override { return integrator_.t(); }
@@ -209,7 +221,7 @@ Companion companion_of(const MethodChoice& c) {
   return out;
 }
 
-std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& c) {
+std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase) {
   if (c.rattle.order != 2 && c.method != "reflection")
     throw std::invalid_argument("--order " + std::to_string(c.rattle.order) +
                                 " applies to the reflection method only (method " + c.method + ")");
@@ -217,15 +229,16 @@ std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice&
     throw std::invalid_argument("--order " + std::to_string(c.rattle.order) +
                                 " composes the explicit step, which needs a constant metric; this scene's "
                                 "depends on q (the implicit general form is of order 2)");
+  announce(phase, "analysing C");
   if (setup.model.has_configuration_metric()) {
-    if (c.method == "reflection") return std::make_unique<ImplicitRunner>(setup, c);
+    if (c.method == "reflection") return std::make_unique<ImplicitRunner>(setup, c, phase);
     throw std::invalid_argument("method " + c.method +
                                 " needs a constant metric; this scene's depends on q (use reflection, "
                                 "the implicit general form)");
   }
-  if (c.method == "reflection") return std::make_unique<ReflectionRunner>(setup, c);
-  if (c.method == "dla-midpoint") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Midpoint);
-  if (c.method == "dla-left") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Left);
+  if (c.method == "reflection") return std::make_unique<ReflectionRunner>(setup, c, phase);
+  if (c.method == "dla-midpoint") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Midpoint, phase);
+  if (c.method == "dla-left") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Left, phase);
   reference::Method method;
   try {
     method = reference::method_from_string(c.method);
@@ -233,7 +246,7 @@ std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice&
     throw std::invalid_argument("unknown method '" + c.method +
                                 "' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner)");
   }
-  return std::make_unique<ReferenceRunner>(setup, method, c);
+  return std::make_unique<ReferenceRunner>(setup, method, c, phase);
 }
 
 }  // namespace nonholo::scenarios

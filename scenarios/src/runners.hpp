@@ -6,6 +6,7 @@
 #include <nonholo/reference/integrators.hpp>
 #include <nonholo/scenarios/scene.hpp>
 
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -59,9 +60,15 @@ struct Companion {
 };
 Companion companion_of(const MethodChoice& choice);
 
+// Told the name of each phase of a runner's set-up as it begins ("analysing C": the workspace
+// and the factorisation's analysis; "starting": the consistent initial state), for the set-up
+// status line (progress.hpp). May be empty.
+using SetupPhase = std::function<void(const char* phase)>;
+
 // Starts the method from the scene's consistent initial state (start_from_velocity).
 // Throws std::invalid_argument for an unknown method, or order 4 or 6 with another method
 // than the explicit reflection step.
-std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& choice);
+std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& choice,
+                                    const SetupPhase& phase = {});
 
 }  // namespace nonholo::scenarios

@@ -443,89 +443,26 @@ SceneSetup build_system(const System& s) {
   const auto label = [](std::size_t index, const std::string& what) {
     return "constraints[" + std::to_string(index) + "] (" + what + ")";
   };
-  for (const Knife& k : s.knives)
-    b.add_one_form({3 * k.body, 3 * k.body + 1, 3 * k.body + 2},
-                   label(k.index, "knife_edge on body " + std::to_string(k.body)));
-  for (const Hitch& h : s.hitches) {
-    const std::string what = "hitch of bodies " + std::to_string(h.a) + " and " + std::to_string(h.b);
-    b.add_holonomic_row({3 * h.a, 3 * h.a + 2, 3 * h.b, 3 * h.b + 2}, label(h.index, what + ", x"));
-    b.add_holonomic_row({3 * h.a + 1, 3 * h.a + 2, 3 * h.b + 1, 3 * h.b + 2}, label(h.index, what + ", y"));
+  // Local elements (nonholo/elements.hpp), their rows body by body (the knife edges of body
+  // b, then the hitches from b to a later body) whatever the file's order: a chain written
+  // in any order is streamed by the fused step (DESIGN.md section 7).
+  std::vector<std::vector<const Knife*>> knives_of(static_cast<std::size_t>(n));
+  std::vector<std::vector<const Hitch*>> hitches_of(static_cast<std::size_t>(n));
+  for (const Knife& k : s.knives) knives_of[static_cast<std::size_t>(k.body)].push_back(&k);
+  for (const Hitch& h : s.hitches) hitches_of[static_cast<std::size_t>(std::min(h.a, h.b))].push_back(&h);
+  for (int body = 0; body < n; ++body) {
+    for (const Knife* k : knives_of[static_cast<std::size_t>(body)])
+      b.add_knife_edge({k->body, k->offset}, label(k->index, "knife_edge on body " + std::to_string(k->body)));
+    for (const Hitch* h : hitches_of[static_cast<std::size_t>(body)])
+      b.add_hitch({h->a, h->b, h->rear, h->front},
+                  label(h->index, "hitch of bodies " + std::to_string(h->a) + " and " + std::to_string(h->b)));
   }
-  const auto knives = s.knives;
-  const auto hitches = s.hitches;
-  if (!knives.empty() || !hitches.empty()) {
-    b.one_form_values([knives, hitches](ConstVecRef q, VecRef mu) {
-      int v = 0;
-      for (const Knife& k : knives) {
-        const double th = q[3 * k.body + 2];
-        mu[v++] = std::sin(th);
-        mu[v++] = -std::cos(th);
-        mu[v++] = k.offset;
-      }
-      for (const Hitch& h : hitches) {
-        const double ta = q[3 * h.a + 2], tb = q[3 * h.b + 2];
-        mu[v] = 1.0, mu[v + 1] = h.rear * std::sin(ta), mu[v + 2] = -1.0, mu[v + 3] = h.front * std::sin(tb);
-        mu[v + 4] = 1.0, mu[v + 5] = -h.rear * std::cos(ta), mu[v + 6] = -1.0, mu[v + 7] = -h.front * std::cos(tb);
-        v += 8;
-      }
-    });
-    b.one_form_bias([knives, hitches](ConstVecRef q, ConstVecRef v, VecRef bias) {
-      int r = 0;
-      for (const Knife& k : knives) {
-        const int o = 3 * k.body;
-        bias[r++] = v[o + 2] * (std::cos(q[o + 2]) * v[o] + std::sin(q[o + 2]) * v[o + 1]);
-      }
-      for (const Hitch& h : hitches) {
-        const double ta = q[3 * h.a + 2], tb = q[3 * h.b + 2], wa = v[3 * h.a + 2], wb = v[3 * h.b + 2];
-        bias[r++] = h.rear * std::cos(ta) * wa * wa + h.front * std::cos(tb) * wb * wb;
-        bias[r++] = h.rear * std::sin(ta) * wa * wa + h.front * std::sin(tb) * wb * wb;
-      }
-    });
+  for (const Spring& sp : s.springs) b.add_torsional_spring({sp.a, sp.b, sp.stiffness, sp.rest});
+  for (const Drive& d : s.drives) {
+    const TimeFunction u = [d](double t) { return d.at(t); };
+    b.add_thrust(d.thrust ? Thrust{d.body, u, nullptr} : Thrust{d.body, nullptr, u});
   }
-  if (!hitches.empty())
-    b.gap([hitches](ConstVecRef q, VecRef g) {
-      int r = 0;
-      for (const Hitch& h : hitches) {
-        const double ta = q[3 * h.a + 2], tb = q[3 * h.b + 2];
-        g[r++] = q[3 * h.a] - h.rear * std::cos(ta) - q[3 * h.b] - h.front * std::cos(tb);
-        g[r++] = q[3 * h.a + 1] - h.rear * std::sin(ta) - q[3 * h.b + 1] - h.front * std::sin(tb);
-      }
-    });
-  const auto springs = s.springs;
-  if (!springs.empty())
-    b.potential(
-        [springs](ConstVecRef q) {
-          double v = 0.0;
-          for (const Spring& sp : springs) {
-            const double d = q[3 * sp.a + 2] - q[3 * sp.b + 2] - sp.rest;
-            v += 0.5 * sp.stiffness * d * d;
-          }
-          return v;
-        },
-        [springs](ConstVecRef q, VecRef g) {
-          g.setZero();
-          for (const Spring& sp : springs) {
-            const double t = sp.stiffness * (q[3 * sp.a + 2] - q[3 * sp.b + 2] - sp.rest);
-            g[3 * sp.a + 2] += t;
-            g[3 * sp.b + 2] -= t;
-          }
-        });
-  const auto drives = s.drives;
-  if (!drives.empty())
-    b.external_force([drives](double t, ConstVecRef q, VecRef f) {
-      f.setZero();
-      for (const Drive& d : drives) {
-        const int o = 3 * d.body;
-        const double u = d.at(t);
-        if (d.thrust) {
-          f[o] += u * std::cos(q[o + 2]);
-          f[o + 1] += u * std::sin(q[o + 2]);
-        } else {
-          f[o + 2] += u;
-        }
-      }
-    });
-  SceneSetup setup{b.build(), 0.0, Vector::Zero(3 * n), Vector::Zero(3 * n)};
+  SceneSetup setup{std::move(b).build(), 0.0, Vector::Zero(3 * n), Vector::Zero(3 * n)};
   for (int i = 0; i < n; ++i) {
     const Body& body = s.bodies[static_cast<std::size_t>(i)];
     setup.q0.segment<3>(3 * i) << body.x, body.y, body.heading;

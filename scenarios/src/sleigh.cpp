@@ -27,16 +27,7 @@ SceneInfo sleigh_scene() {
     const double a = p["a"], v0 = p["v0"], w0 = p["omega0"], th = p["theta0"];
     ModelBuilder b;
     b.add_planar_body({"x", "y", "theta"}, p.positive("m"), p.positive("I"));
-    b.add_one_form({0, 1, 2});
-    b.one_form_values([a](ConstVecRef q, VecRef mu) {
-      mu[0] = std::sin(q[2]);
-      mu[1] = -std::cos(q[2]);
-      mu[2] = a;
-    });
-    // d/dt [sin th, -cos th, a] . qdot = thetadot (cos th xdot + sin th ydot)
-    b.one_form_bias([](ConstVecRef q, ConstVecRef v, VecRef bias) {
-      bias[0] = v[2] * (std::cos(q[2]) * v[0] + std::sin(q[2]) * v[1]);
-    });
+    b.add_knife_edge({0, a});  // a local element: the step streams it without callbacks
     // Centre velocity (v + i a omega) e^{i theta}: already in D.
     const Eigen::Vector3d qdot(v0 * std::cos(th) - a * w0 * std::sin(th),
                                v0 * std::sin(th) + a * w0 * std::cos(th), w0);

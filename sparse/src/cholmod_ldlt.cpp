@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace nonholo::sparse {
@@ -80,33 +81,67 @@ struct CholmodLDLT::Impl {
     cholmod_free_sparse(&lower, &common);
   }
 
-  // Upper triangle of P C P^T (compressed columns, rows sorted) and the slot map into it.
+  // Upper triangle of P C P^T (compressed columns, rows sorted) and the slot map into it: a
+  // counting sort by column, in O(nnz) (no sort of all entries; a million-body chain has 12
+  // million). In the natural order the rows come out sorted; a permuted column is sorted on
+  // its own (its few entries).
   void build_permuted_upper(const SymmetricPattern& pattern) {
-    const int m = pattern.size;
-    std::vector<int> inverse(m);
-    for (int k = 0; k < m; ++k) inverse[perm[k]] = k;
-    struct Entry { int col, row, slot; };
-    std::vector<Entry> entries;
-    entries.reserve(pattern.nnz());
-    for (int j = 0; j < m; ++j)
-      for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) {
-        const int u = inverse[pattern.row_idx[s]], v = inverse[j];
-        entries.push_back({std::max(u, v), std::min(u, v), s});
-      }
-    std::sort(entries.begin(), entries.end(),
-              [](const Entry& u, const Entry& v) { return u.col != v.col ? u.col < v.col : u.row < v.row; });
-    c = cholmod_allocate_sparse(m, m, pattern.nnz(), true, true, 1, CHOLMOD_REAL, &common);
+    const int m = pattern.size, nnz = pattern.nnz();
+    const bool natural = ordering_is_natural();
+    std::vector<int> inverse;
+    if (!natural) {
+      inverse.resize(m);
+      for (int k = 0; k < m; ++k) inverse[perm[k]] = k;
+    }
+    c = cholmod_allocate_sparse(m, m, nnz, true, true, 1, CHOLMOD_REAL, &common);
     if (!c) fail("cannot allocate C");
     int* cp = static_cast<int*>(c->p);
     int* ci = static_cast<int*>(c->i);
-    slot_to_upper.resize(pattern.nnz());
+    // Entry (row u, column v) of the upper triangle for slot s of column j: u <= v.
+    auto upper = [&](int j, int s, int& u, int& v) {
+      const int row = natural ? pattern.row_idx[s] : inverse[pattern.row_idx[s]], col = natural ? j : inverse[j];
+      u = std::min(row, col);
+      v = std::max(row, col);
+    };
     std::fill(cp, cp + m + 1, 0);
-    for (std::size_t k = 0; k < entries.size(); ++k) {
-      ++cp[entries[k].col + 1];
-      ci[k] = entries[k].row;
-      slot_to_upper[entries[k].slot] = static_cast<int>(k);
+    int u, v;
+    for (int j = 0; j < m; ++j)
+      for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) {
+        upper(j, s, u, v);
+        ++cp[v + 1];
+      }
+    for (int k = 0; k < m; ++k) cp[k + 1] += cp[k];
+    slot_to_upper.resize(nnz);
+    std::vector<int> next(cp, cp + m);
+    for (int j = 0; j < m; ++j)
+      for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) {
+        upper(j, s, u, v);
+        const int k = next[v]++;
+        ci[k] = u;
+        slot_to_upper[s] = k;
+      }
+    std::vector<int>().swap(next);
+    if (natural) return;
+    std::vector<int> slot_of(static_cast<std::size_t>(nnz));  // entry of c -> slot
+    for (int slot = 0; slot < nnz; ++slot) slot_of[slot_to_upper[slot]] = slot;
+    std::vector<std::pair<int, int>> column;
+    for (int k = 0; k < m; ++k) {
+      const int begin = cp[k], end = cp[k + 1];
+      if (std::is_sorted(ci + begin, ci + end)) continue;
+      column.clear();
+      for (int t = begin; t < end; ++t) column.emplace_back(ci[t], slot_of[t]);
+      std::sort(column.begin(), column.end());
+      for (int t = begin; t < end; ++t) {
+        ci[t] = column[t - begin].first;
+        slot_to_upper[column[t - begin].second] = t;
+      }
     }
-    for (int j = 0; j < m; ++j) cp[j + 1] += cp[j];
+  }
+
+  bool ordering_is_natural() const {
+    for (std::size_t k = 0; k < perm.size(); ++k)
+      if (perm[k] != static_cast<int>(k)) return false;
+    return true;
   }
 };
 
@@ -141,9 +176,12 @@ CholmodLDLT::CholmodLDLT(const SymmetricPattern& pattern, CholmodOrdering orderi
 
   // One factorisation and solve of a diagonally dominant matrix with the same pattern, so
   // that CHOLMOD allocates the numeric factor and the solve workspace here, not in a step.
-  std::vector<double> values(pattern.nnz(), -1.0), rhs(m, 1.0), out(m);
-  for (int j = 0; j < m; ++j) values[s.diag_slot[j]] = 2.0 * m + 1.0;
-  if (factorize(values.data(), 0.0) != FactorStatus::Ok || solve(rhs.data(), out.data()) != FactorStatus::Ok)
+  // The values go straight into C's own storage (no temporary of nnz(C) values).
+  double* cx = static_cast<double*>(s.c->x);
+  std::fill(cx, cx + pattern.nnz(), -1.0);
+  for (int k = 0; k < m; ++k) cx[s.diag_pos[k]] = 2.0 * m + 1.0;
+  std::vector<double> rhs(m, 1.0), out(m);
+  if (factorize_in_place(0.0) != FactorStatus::Ok || solve(rhs.data(), out.data()) != FactorStatus::Ok)
     throw std::runtime_error(std::string("CHOLMOD: warm-up factorisation failed: ") + message());
 }
 

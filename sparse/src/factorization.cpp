@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <nonholo/sparse/banded_ldlt.hpp>
 #include <nonholo/sparse/structure.hpp>
 
 #include "block_llt.hpp"
@@ -33,6 +34,7 @@ const char* to_string(Backend backend) {
     case Backend::Auto: return "auto";
     case Backend::BlockDiagonal: return "block-diagonal";
     case Backend::Dense: return "dense";
+    case Backend::Banded: return "banded";
     case Backend::CholmodNatural: return "cholmod-natural";
     case Backend::CholmodAmd: return "cholmod-amd";
   }
@@ -40,11 +42,11 @@ const char* to_string(Backend backend) {
 }
 
 Backend backend_from_string(const std::string& name) {
-  for (Backend b : {Backend::Auto, Backend::BlockDiagonal, Backend::Dense, Backend::CholmodNatural,
-                    Backend::CholmodAmd})
+  for (Backend b : {Backend::Auto, Backend::BlockDiagonal, Backend::Dense, Backend::Banded,
+                    Backend::CholmodNatural, Backend::CholmodAmd})
     if (name == to_string(b)) return b;
   throw std::invalid_argument("unknown backend '" + name +
-                              "' (valid: auto, block-diagonal, dense, cholmod-natural, cholmod-amd)");
+                              "' (valid: auto, block-diagonal, dense, banded, cholmod-natural, cholmod-amd)");
 }
 
 Backend resolve_backend(Backend requested, const SymmetricPattern& pattern) {
@@ -53,6 +55,7 @@ Backend resolve_backend(Backend requested, const SymmetricPattern& pattern) {
   const DiagonalBlocks blocks = find_diagonal_blocks(pattern);
   if (blocks.count() > 1 && blocks.max_size() <= kMaxDiagonalBlock) return Backend::BlockDiagonal;
   if (pattern.size <= kDenseMaxSize) return Backend::Dense;
+  if (band_is_compact(pattern)) return Backend::Banded;
   if (natural_envelope(pattern) <= 2LL * pattern.nnz()) return Backend::CholmodNatural;
   return Backend::CholmodAmd;
 }
@@ -100,6 +103,7 @@ std::unique_ptr<Factorization> make_factorization(Backend backend, const Symmetr
                                     " rows; the dense path stops at " +
                                     std::to_string(kDenseForcedMaxSize) + " (use auto)");
       return make_dense_llt(pattern);
+    case Backend::Banded: return std::make_unique<BandedLdlt>(pattern);
     case Backend::CholmodNatural: return std::make_unique<CholmodLDLT>(pattern, CholmodOrdering::Natural);
     case Backend::CholmodAmd: return std::make_unique<CholmodLDLT>(pattern, CholmodOrdering::Amd);
     case Backend::Auto: break;

@@ -1,15 +1,150 @@
 #include <nonholo/sparse/gram_assembler.hpp>
 
 #include <algorithm>
+#include <limits>
+#include <stdexcept>
 
 namespace nonholo::sparse {
 
 GramAssembler::GramAssembler(const RowPattern& a, const BlockDiagonal& w) : diagonal_(w.is_diagonal()) {
-  const int m = a.rows;
-  pattern_.size = m;
+  pattern_.size = a.rows;
+  if (diagonal_)
+    build_diagonal(a, w);
+  else
+    build_general(a, w);
+}
 
+// W diagonal (the usual case: planar bodies). A product a[kr] W(j, j) a[kc] is nonzero only
+// when the values kr of row r and kc of row c sit in the same column j, so the rows r >= c
+// that share a slot with row c are those of c's columns (a transpose of A's pattern), and
+// each value of row r meets at most one of row c. Slots and terms come out in the order of
+// the general construction (rows ascending within a column; the terms of a slot by kr), so
+// the assembled sums are the same to the bit.
+void GramAssembler::build_diagonal(const RowPattern& a, const BlockDiagonal& w) {
+  const int m = a.rows, n = w.size(), nnz = a.nnz();
+  const int* row_ptr = a.row_ptr.data();
+  const int* col_idx = a.col_idx.data();
+  const double* diag = w.diagonal();
+
+  // Rows of each column j, ascending: rows_of[col_ptr[j] .. col_ptr[j+1]).
+  std::vector<int> col_ptr(static_cast<std::size_t>(n) + 2, 0), rows_of(static_cast<std::size_t>(nnz));
+  for (int k = 0; k < nnz; ++k) ++col_ptr[col_idx[k] + 2];
+  for (int j = 2; j <= n + 1; ++j) col_ptr[j] += col_ptr[j - 1];
+  for (int r = 0; r < m; ++r)
+    for (int k = row_ptr[r]; k < row_ptr[r + 1]; ++k) rows_of[col_ptr[col_idx[k] + 1]++] = r;
+  // first[j]: the first row of column j not below the current column c of C (it only advances).
+  std::vector<int> first(col_ptr.begin(), col_ptr.begin() + n);
+  auto advance = [&](int j, int c) {
+    int t = first[j];
+    while (t < col_ptr[j + 1] && rows_of[t] < c) ++t;
+    first[j] = t;
+    return t;
+  };
+
+  // Pass 1: the number of slots and of terms, to size every array once. A column j of row c
+  // gives one term to each row r >= c that has j (with W(j, j) != 0, always so for an SPD W).
+  std::vector<int> mark(static_cast<std::size_t>(m), -1);
+  long long slots = 0, terms = 0;
+  for (int c = 0; c < m; ++c) {
+    mark[c] = c;
+    ++slots;  // the diagonal always has a slot
+    for (int kc = row_ptr[c]; kc < row_ptr[c + 1]; ++kc) {
+      const int j = col_idx[kc];
+      if (diag[j] == 0.0) continue;
+      for (int t = advance(j, c); t < col_ptr[j + 1]; ++t) {
+        const int r = rows_of[t];
+        ++terms;
+        if (mark[r] != c) {
+          mark[r] = c;
+          ++slots;
+        }
+      }
+    }
+  }
+  if (slots > std::numeric_limits<int>::max() || terms > std::numeric_limits<int>::max())
+    throw std::length_error("GramAssembler: C has more than 2^31 entries or products");
+  num_products_ = static_cast<int>(terms);
+  pattern_.col_ptr.reserve(static_cast<std::size_t>(m) + 1);
+  pattern_.row_idx.reserve(static_cast<std::size_t>(slots));
+  w_value_.reserve(static_cast<std::size_t>(nnz));
+  for (int k = 0; k < nnz; ++k) w_value_.push_back(diag[col_idx[k]]);
+
+  // Pass 2: the slots and their terms, in the compact form while every slot fits it (at most
+  // 255 terms, all within 255 values of the slot's smallest), else as pairs.
+  compact_ = true;
+  base_.reserve(static_cast<std::size_t>(slots));
+  count_.reserve(static_cast<std::size_t>(slots));
+  offsets_.reserve(2 * static_cast<std::size_t>(terms));
+  auto to_pairs = [&] {  // convert the slots so far, then continue as pairs
+    compact_ = false;
+    slot_begin_.reserve(static_cast<std::size_t>(slots) + 1);
+    pairs_.reserve(2 * static_cast<std::size_t>(terms));
+    const unsigned char* off = offsets_.data();
+    for (std::size_t s = 0; s < base_.size(); ++s) {
+      for (int t = 0; t < count_[s]; ++t, off += 2) {
+        pairs_.push_back(base_[s] + off[0]);
+        pairs_.push_back(base_[s] + off[1]);
+      }
+      slot_begin_.push_back(static_cast<int>(pairs_.size() / 2));
+    }
+    std::vector<int>().swap(base_);
+    std::vector<unsigned char>().swap(count_);
+    std::vector<unsigned char>().swap(offsets_);
+  };
+  std::fill(mark.begin(), mark.end(), -1);
+  std::vector<int> position(static_cast<std::size_t>(n), -1);  // column -> its value in row c
+  std::vector<int> candidates, slot_terms;
+  for (int j = 0; j < n; ++j) first[j] = col_ptr[j];
+  for (int c = 0; c < m; ++c) {
+    candidates.assign(1, c);
+    mark[c] = c;
+    for (int kc = row_ptr[c]; kc < row_ptr[c + 1]; ++kc) {
+      const int j = col_idx[kc];
+      if (diag[j] == 0.0) continue;
+      position[j] = kc;
+      for (int t = advance(j, c); t < col_ptr[j + 1]; ++t)
+        if (mark[rows_of[t]] != c) {
+          mark[rows_of[t]] = c;
+          candidates.push_back(rows_of[t]);
+        }
+    }
+    std::sort(candidates.begin(), candidates.end());
+    for (int r : candidates) {
+      slot_terms.clear();  // (kr, kc) pairs, kr ascending
+      int lo = nnz, hi = 0;
+      for (int kr = row_ptr[r]; kr < row_ptr[r + 1]; ++kr) {
+        const int kc = position[col_idx[kr]];
+        if (kc < 0) continue;
+        slot_terms.push_back(kr);
+        slot_terms.push_back(kc);
+        lo = std::min({lo, kr, kc});
+        hi = std::max({hi, kr, kc});
+      }
+      pattern_.row_idx.push_back(r);
+      const int count = static_cast<int>(slot_terms.size() / 2);
+      if (compact_ && (count > 255 || hi - lo > 255)) to_pairs();
+      if (compact_) {
+        base_.push_back(count > 0 ? lo : 0);
+        count_.push_back(static_cast<unsigned char>(count));
+        for (int v : slot_terms) offsets_.push_back(static_cast<unsigned char>(v - lo));
+      } else {
+        pairs_.insert(pairs_.end(), slot_terms.begin(), slot_terms.end());
+        slot_begin_.push_back(static_cast<int>(pairs_.size() / 2));
+      }
+    }
+    pattern_.col_ptr.push_back(pattern_.nnz());
+    for (int kc = row_ptr[c]; kc < row_ptr[c + 1]; ++kc) position[col_idx[kc]] = -1;
+  }
+  if (compact_) std::vector<int>{0}.swap(slot_begin_);
+}
+
+// General W: the rows touching a block of W are the candidates; each pair of values of rows r
+// and c whose columns W couples is a term with its weight (doubled for the two equal
+// off-diagonal products of a diagonal slot).
+void GramAssembler::build_general(const RowPattern& a, const BlockDiagonal& w) {
+  const int m = a.rows;
   // Rows touching each block of W (compressed, ascending): the candidates for a nonzero
-  // C(r, c). Two passes, no per-block vectors (a million bodies).
+  // C(r, c). Two passes, no per-block vectors.
   const int blocks = w.num_blocks();
   std::vector<int> block_ptr(blocks + 1, 0), last(blocks, -1), block_rows;
   for (int pass = 0; pass < 2; ++pass) {
@@ -29,14 +164,16 @@ GramAssembler::GramAssembler(const RowPattern& a, const BlockDiagonal& w) : diag
     }
   }
 
-  std::vector<int> candidates;
+  std::vector<int> candidates, mark(static_cast<std::size_t>(m), -1);
   for (int c = 0; c < m; ++c) {  // column c of the lower triangle, rows r >= c
     candidates.clear();
     for (int k = a.row_ptr[c]; k < a.row_ptr[c + 1]; ++k)
       for (int b = w.block_of(a.col_idx[k]), t = block_ptr[b]; t < block_ptr[b + 1]; ++t)
-        if (block_rows[t] >= c) candidates.push_back(block_rows[t]);
+        if (block_rows[t] >= c && mark[block_rows[t]] != c) {
+          mark[block_rows[t]] = c;
+          candidates.push_back(block_rows[t]);
+        }
     std::sort(candidates.begin(), candidates.end());
-    candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
 
     for (int r : candidates) {
       const std::size_t first = weight_.size();
@@ -59,52 +196,7 @@ GramAssembler::GramAssembler(const RowPattern& a, const BlockDiagonal& w) : diag
     }
     pattern_.col_ptr.push_back(pattern_.nnz());
   }
-  if (diagonal_) {
-    // Only same-column products survive a diagonal W, each with weight W(j, j) (never the
-    // doubled off-diagonal products of a diagonal slot): keep the pairs and a per-value
-    // weight, half the memory of the general terms and streamed in order.
-    w_value_.resize(a.col_idx.size());
-    for (std::size_t k = 0; k < a.col_idx.size(); ++k) w_value_[k] = w.entry(a.col_idx[k], a.col_idx[k]);
-    pairs_.resize(2 * left_.size());
-    for (std::size_t t = 0; t < left_.size(); ++t) {
-      pairs_[2 * t] = left_[t];
-      pairs_[2 * t + 1] = right_[t];
-    }
-    // Compact form: every slot's terms within 255 values of its smallest one, at most 255 terms.
-    const int slots = pattern_.nnz();
-    compact_ = true;
-    base_.resize(slots);
-    count_.resize(slots);
-    offsets_.reserve(2 * left_.size());
-    for (int slot = 0; slot < slots && compact_; ++slot) {
-      int lo = a.nnz(), hi = 0;
-      for (int t = slot_begin_[slot]; t < slot_begin_[slot + 1]; ++t) {
-        lo = std::min({lo, left_[t], right_[t]});
-        hi = std::max({hi, left_[t], right_[t]});
-      }
-      const int terms = slot_begin_[slot + 1] - slot_begin_[slot];
-      if (terms > 255 || hi - lo > 255) {
-        compact_ = false;
-        break;
-      }
-      base_[slot] = lo;
-      count_[slot] = static_cast<unsigned char>(terms);
-      for (int t = slot_begin_[slot]; t < slot_begin_[slot + 1]; ++t) {
-        offsets_.push_back(static_cast<unsigned char>(left_[t] - lo));
-        offsets_.push_back(static_cast<unsigned char>(right_[t] - lo));
-      }
-    }
-    if (compact_) {
-      std::vector<int>().swap(pairs_);
-    } else {
-      std::vector<int>().swap(base_);
-      std::vector<unsigned char>().swap(count_);
-      std::vector<unsigned char>().swap(offsets_);
-    }
-    std::vector<int>().swap(left_);
-    std::vector<int>().swap(right_);
-    std::vector<double>().swap(weight_);
-  }
+  num_products_ = slot_begin_.back();
 }
 
 namespace {

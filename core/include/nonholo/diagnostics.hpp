@@ -23,6 +23,12 @@ struct Diagnostics {
 // step has no post-momentum (its multipliers restart), and `nonholo run` reports it as NaN.
 Diagnostics diagnose(const Model& model, Workspace& ws, const State& state, double h);
 
+// diagnose() for the state the last step() on this workspace returned (the same buffers, not
+// changed since): a fused chain step (Workspace::fused) computed these values in its sweeps,
+// and they are returned at no cost; otherwise diagnose() runs. The values agree with
+// diagnose()'s to round-off (energy_post is summed from p_{k+1/2} as the step had it).
+Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& state, double h);
+
 // (1/2) p^T M^-1 p. scratch: n entries.
 double kinetic_energy(const Model& model, ConstVecRef p, VecRef scratch);
 

@@ -8,10 +8,14 @@
 #include <nonholo/sparse/patterns.hpp>
 #include <nonholo/types.hpp>
 
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace nonholo {
+namespace detail {
+struct ElementSet;  // core/src/element_set.hpp
+}
 
 struct Body {
   int offset = 0;  // first coordinate of the body
@@ -74,6 +78,16 @@ class Model {
   const std::vector<int>& holonomic_rows() const { return holonomic_rows_; }
   void gap(ConstVecRef q, VecRef g) const { gap_(q, g); }
 
+  // Built from local constraint elements (nonholo/elements.hpp)? Then its one-form values,
+  // bias, gaps, potential and forces are the elements' own, and element_set() describes them
+  // (for the integrators; its type is internal).
+  bool has_elements() const { return static_cast<bool>(elements_); }
+  const detail::ElementSet* element_set() const { return elements_.get(); }
+  // Whether the explicit step can stream this model body by body (element_set.hpp's chain
+  // layout): the banded backend is then chosen by Backend::Auto.
+  bool is_chain() const;
+  bool element_set_is_hitched_chain() const;  // knife edge and hitch on every body (internal)
+
   // Sparse products with the one-form values (nnz entries, pattern order).
   void mu_times(const double* mu, const double* x, double* y) const;            // y = mu x
   void mu_transpose_times(const double* mu, const double* lambda, double* g) const;  // g = mu^T lambda
@@ -98,6 +112,7 @@ class Model {
   MetricValue metric_;
   MetricDerivative metric_derivative_;
   ConstraintGap gap_;
+  std::shared_ptr<const detail::ElementSet> elements_;
 };
 
 }  // namespace nonholo

@@ -1,11 +1,13 @@
 #pragma once
 // Validating construction of a Model. Every mistake is reported by a std::invalid_argument
 // whose message names the body, row or column and the offending value.
+#include <nonholo/elements.hpp>
 #include <nonholo/model.hpp>
 
 #include <array>
+#include <cstdint>
+#include <memory>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace nonholo {
@@ -20,6 +22,10 @@ class ModelBuilder {
   // Throws unless mass and inertia are finite and positive.
   int add_planar_body(const std::array<std::string, 3>& coordinate_names, double mass, double inertia);
 
+  // Optional: room for a model of this size, so that a million bodies are added without
+  // regrowing (and copying) the builder's arrays; the name table is sized once.
+  void reserve(int bodies, int coordinates, int rows, int values);
+
   // A constraint row mu_a(q) qdot = 0 touching these coordinates (its sparsity pattern,
   // fixed for ever). Returns the row index. Checked in build(): non-empty, no duplicates,
   // every column in range. The optional label (say "constraints[3] (knife_edge on body 2)")
@@ -29,6 +35,21 @@ class ModelBuilder {
   // added like add_one_form (its values come from one_form_values) and also recorded as
   // holonomic; gap() gives g_j in the order of these calls.
   int add_holonomic_row(const std::vector<int>& columns, std::string label = "");
+  // Local constraint elements (nonholo/elements.hpp) on planar bodies (added with
+  // add_planar_body, or any body whose first three coordinates are x, y, theta and whose mass
+  // block is 3x3). Each adds its rows now, in call order, and evaluates them itself: a model
+  // whose rows all come from elements needs no one_form_values, bias or gap function, and
+  // its springs and thrusts make its potential and external force. Rows from add_one_form
+  // and element rows cannot be mixed in one model, nor springs with potential() or thrusts
+  // with external_force(). Throws at once for a body out of range, a non-planar body, a
+  // hitch of a body to itself, or a non-finite parameter; returns the first row's index.
+  // Add them body by body (knife edge of b, then the hitch b -> b+1) and the step streams
+  // the chain in one forward and one backward sweep (DESIGN.md section 7).
+  int add_knife_edge(const KnifeEdge& knife, std::string label = "");
+  int add_hitch(const Hitch& hitch, std::string label = "");
+  void add_torsional_spring(const TorsionalSpring& spring);
+  void add_thrust(Thrust thrust);
+
   // The gaps g(q), required when there are holonomic rows.
   ModelBuilder& gap(ConstraintGap gap);
   // Fills the values of all rows at q (required when there are rows).
@@ -43,14 +64,31 @@ class ModelBuilder {
   // mass blocks should be M(q0): the set-up code and the diagnostics of q0 use them.
   ModelBuilder& configuration_metric(MetricValue value, MetricDerivative derivative);
 
-  Model build() const;
+  // The model. On an rvalue (std::move(builder).build()) the builder's contents are moved
+  // into it rather than copied: a million-body chain is built in half the time and memory.
+  Model build() const&;
+  Model build() &&;
 
  private:
   // The model being built: bodies, names, mass blocks and callbacks go straight in; build()
   // validates the rows and fills the derived parts (inverse metric, pattern, index map of C).
   Model draft_;
-  std::vector<std::vector<int>> rows_;
-  std::unordered_map<std::string, int> body_of_name_;  // coordinate name -> body
+  // The rows' columns, compressed (one allocation for a million rows, not one per row).
+  std::vector<int> row_ptr_{0}, row_cols_;
+  int num_rows() const { return static_cast<int>(row_ptr_.size()) - 1; }
+  int add_row(const int* columns, int count, std::string label);
+  // Coordinate names already used: an open-addressing table of (hash, coordinate index + 1),
+  // 0 for an empty slot; no node or string per entry.
+  std::vector<std::uint64_t> name_slots_;
+  int find_name(const std::string& name) const;  // its coordinate, or -1
+  void insert_name(int coordinate);
+  int body_of_coordinate(int coordinate) const;
+  void check_names(int index, const std::string* names, int k) const;
+  std::shared_ptr<detail::ElementSet> elements_;      // null until an element is added
+  detail::ElementSet& elements();
+  int planar_body(int body, const char* element) const;  // its first coordinate, or throws
+  Model finish(Model model, std::shared_ptr<detail::ElementSet> elements) const;
+  void build_elements(Model& model, std::shared_ptr<detail::ElementSet> set) const;
 };
 
 }  // namespace nonholo

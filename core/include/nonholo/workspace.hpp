@@ -3,6 +3,7 @@
 // own factorisation of C (for CHOLMOD, its own cholmod_common). One Workspace per thread;
 // the Model must outlive it. The buffers are scratch owned by the integrators.
 #include <nonholo/model.hpp>
+#include <nonholo/sparse/banded_ldlt.hpp>
 #include <nonholo/sparse/factorization.hpp>
 #include <nonholo/sparse/message.hpp>
 #include <nonholo/status.hpp>
@@ -12,6 +13,8 @@
 namespace nonholo {
 
 struct WorkspaceOptions {
+  // Auto picks by the pattern of C (sparse::resolve_backend), except that a chain of elements
+  // (Model::is_chain) always gets Banded: the step then streams it body by body.
   sparse::Backend backend = sparse::Backend::Auto;
   // Room to restore the state when a composed step (RattleOptions::order 4 or 6) fails in
   // one of its substeps: four more state-sized vectors. Turn off for order-2-only use of a
@@ -59,7 +62,8 @@ class alignas(128) Workspace {
   // Scratch vectors of size n (coordinates) ...
   Vector q_next, p_half, p_hat, p_next, velocity, applied, force_next, scratch_n, scratch_n2;
   // ... of size nnz(mu), nnz(C) and m (one-form rows). c_values holds C only for the
-  // factorisations without an in-place path (it is empty with CHOLMOD).
+  // factorisations without an in-place path (it is empty with CHOLMOD and banded);
+  // scratch_nnz2 is empty for a model with an analytic bias.
   Vector mu_values, c_values, rhs, lambda, scratch_m, scratch_nnz, scratch_nnz2;
   // ... and of size num_holonomic() (hitch gaps g(q)).
   Vector gap;
@@ -87,12 +91,45 @@ class alignas(128) Workspace {
   // Numeric factorisations of C so far (the unit of cost the methods are compared in).
   long factorizations = 0;
 
+  // --- the fused chain step (core/src/chain_sweep.cpp) -----------------------------------
+  // Whether step() streams this model body by body: a chain of elements on the banded backend.
+  bool fused() const { return banded_ != nullptr && model_->is_chain(); }
+  sparse::BandedLdlt* banded() { return banded_; }
+  // sin and cos of each body's angle at the last fused step's q (2 per body).
+  Vector chain_sincos;
+  // The diagnostics of the state the last fused step produced, computed by its sweeps;
+  // `q` is that state's q buffer (nullptr when invalid). Read through diagnose_step().
+  struct StepDiagnostics {
+    const double* q = nullptr;
+    long steps = -1;
+    double energy = 0.0, energy_post = 0.0, residual = 0.0, gap = 0.0;
+  } step_diagnostics;
+  // The sweep writes mu(q) and q itself: it forgets the cached one-forms first, hands out the
+  // key buffer, and declares both valid (with C(q) factorised) when it succeeds.
+  // Without `mu_written` the values are filled from chain_sincos when first asked for
+  // (evaluate_one_forms): a one-form step does not need them, only a restart or diagnose().
+  void forget_one_forms() { key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = false; }
+  double* one_form_key() { return mu_q_.data(); }
+  void forget_sincos() { sincos_valid_ = false; }  // chain_sincos reused for another q
+  void one_forms_factorized_at_key(bool mu_written) {
+    key_valid_ = factor_valid_ = sincos_valid_ = true;
+    mu_valid_ = mu_written;
+    ++factorizations;
+  }
+  // Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
+  bool sincos_hold(ConstVecRef q) const;
+  // The Status and message of a failed factorisation (as factorize() reports it).
+  Status report_factor_failure(sparse::FactorStatus status);
+
  private:
   const Model* model_;
   std::unique_ptr<sparse::Factorization> factor_;
-  Vector mu_q_;  // the q whose one-form values mu_values holds, when mu_valid_
-  bool mu_valid_ = false;
-  bool factor_valid_ = false;  // the factorisation holds C(mu_values)
+  sparse::BandedLdlt* banded_ = nullptr;  // factor_ when it is banded
+  Vector mu_q_;            // the q of mu_values and of the factorisation, when key_valid_
+  bool key_valid_ = false;
+  bool mu_valid_ = false;     // mu_values holds mu(mu_q_)
+  bool factor_valid_ = false;  // the factorisation holds C(mu(mu_q_))
+  bool sincos_valid_ = false;  // chain_sincos holds sin/cos of mu_q_ (set by a fused step only)
   Status report_non_finite_one_forms();
   // " (row r is <label>)" for a labelled row of mu or C, "" otherwise; no allocation.
   const char* row_note(int row);

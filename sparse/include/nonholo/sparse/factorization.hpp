@@ -29,20 +29,23 @@ const char* to_string(FactorStatus status);
 //   BlockDiagonal   C splits into small independent blocks (every row touches one body):
 //                   a dense Cholesky per block, no sparse factorisation;
 //   Dense           a small coupled C: dense Cholesky, fixed-size up to 4 rows;
-//   CholmodNatural  CHOLMOD simplicial LDL^T in the natural order: banded C (chains);
+//   Banded          LDL^T in band storage in the natural order (banded_ldlt.hpp): chains
+//                   ordered body by body; the fused chain step streams through it;
+//   CholmodNatural  CHOLMOD simplicial LDL^T in the natural order (can be forced for banded C);
 //   CholmodAmd      CHOLMOD simplicial LDL^T after an AMD ordering: general patterns.
 // Auto picks by structure; see resolve_backend.
-enum class Backend { Auto, BlockDiagonal, Dense, CholmodNatural, CholmodAmd };
+enum class Backend { Auto, BlockDiagonal, Dense, Banded, CholmodNatural, CholmodAmd };
 const char* to_string(Backend backend);
-// "auto", "block-diagonal", "dense", "cholmod-natural", "cholmod-amd"; throws
+// "auto", "block-diagonal", "dense", "banded", "cholmod-natural", "cholmod-amd"; throws
 // std::invalid_argument naming the valid choices.
 Backend backend_from_string(const std::string& name);
 // Largest C handled by the dense path when the choice is Auto, and when it is forced.
 inline constexpr int kDenseMaxSize = 8;
 inline constexpr int kDenseForcedMaxSize = 2000;
 // Auto: BlockDiagonal if C has more than one block and every block has at most 8 rows;
-// otherwise Dense up to kDenseMaxSize rows; otherwise CholmodNatural if the natural order
-// is banded (natural_envelope <= 2 nnz), else CholmodAmd. Any other request is returned.
+// otherwise Dense up to kDenseMaxSize rows; otherwise Banded if the natural order is banded
+// and its band compact (band_is_compact), else CholmodNatural if the natural envelope is at
+// most 2 nnz, else CholmodAmd. Any other request is returned.
 Backend resolve_backend(Backend requested, const SymmetricPattern& pattern);
 
 class Factorization {
@@ -91,6 +94,11 @@ class Factorization {
   }
   void clear_message() { message_.clear(); }
   void set_failed_row(int row) { failed_row_ = row; }
+  // For factorisations that test their pivots as they go (BandedLdlt).
+  void set_pivot_summary(double min_ratio, int min_row) {
+    min_ratio_ = min_ratio;
+    min_row_ = min_row;
+  }
 
  private:
   int size_;

@@ -1,0 +1,66 @@
+#pragma once
+// The fused chain step (chain_sweep.cpp): detail::advance hands a chain of elements on the
+// banded backend (Workspace::fused) to it.
+#include <nonholo/rattle.hpp>
+
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
+
+namespace nonholo::detail {
+
+// Subnormal numbers (|x| < 2.2e-308) flushed to zero during a fused step, and the caller's
+// floating-point mode restored after. A long chain set in motion at one end carries motions
+// of 1e-310 and below down its length for a long time; each subnormal operation costs about
+// a hundred cycles, and they made the step 3 times slower (measured: 375 against 120 ns per
+// body-step, 1000 bodies, 5 steps from rest). Flushing changes no value above 1e-308.
+// Only for chains long enough to carry them (`on`): switching the mode costs about as much
+// as a small model's whole step (measured on the batched single sleigh).
+class FlushSubnormals {
+ public:
+#if defined(__SSE__)
+  explicit FlushSubnormals(bool on = true) : on_(on), saved_(on ? _mm_getcsr() : 0u) {
+    if (on_) _mm_setcsr(saved_ | 0x8040u);  // FTZ | DAZ
+  }
+  ~FlushSubnormals() {
+    if (on_) _mm_setcsr(saved_);
+  }
+#else
+  explicit FlushSubnormals(bool = true) {}
+#endif
+  FlushSubnormals(const FlushSubnormals&) = delete;
+  FlushSubnormals& operator=(const FlushSubnormals&) = delete;
+
+#if defined(__SSE__)
+ private:
+  bool on_;
+  unsigned saved_;
+#endif
+};
+inline constexpr int kFlushSubnormalsFrom = 16;  // bodies
+
+// Holonomic mode on the common chain (ElementSet::hitched_chain), one pass each:
+// chain_gap_rhs puts sin/cos of ws.q_next in ws.chain_sincos and scale * g in ws.rhs (hitch
+// rows; 0 on the knife rows) and returns max |g|; chain_gap_correction applies
+// p_half += (h/2) mu_k^T dlambda and q_next += (h^2/2) M^-1 mu_k^T dlambda with mu_k in
+// ws.mu_values.
+// mu(q) in ws.mu_values from ws.chain_sincos, for the q of the last fused step (which wrote
+// mu itself only in holonomic mode, where the next step's corrections need it).
+void chain_one_forms_from_sincos(const Model& model, Workspace& ws);
+
+// The bias (d/dt mu) qdot at the q of ws.chain_sincos (Workspace::sincos_hold).
+void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef qdot, VecRef bias);
+
+double chain_gap_rhs(const Model& model, Workspace& ws, double scale);
+void chain_gap_correction(const Model& model, Workspace& ws, const double* dlambda, double h);
+
+// From the state at t_k to ws.q_next, p_next, lambda, force_next (and ws.applied, the applied
+// force at t_{k+1}) as detail::advance computes them; mu(q_{k+1}) in ws.mu_values and C(q_{k+1})
+// factorised; ws.step_diagnostics filled (its q and steps are set by the caller on commit).
+// `kicked`: ws.p_half and ws.q_next already hold the first half kick and drift (holonomic
+// mode after enforce_gaps; on the common chain, ws.chain_sincos then holds their sin/cos). `check` accumulates q, p and force (non-finite when they are).
+// Never throws (thrust callbacks are guarded by the caller); the state is not touched.
+Status chain_sweep(const Model& model, Workspace& ws, const State& state, const RattleOptions& options, double h,
+                   double t_next, bool kicked, double& check);
+
+}  // namespace nonholo::detail

@@ -1,0 +1,59 @@
+#pragma once
+// A model's local constraint elements (nonholo/elements.hpp) and what build() derives from
+// them: the one-form values, bias and gaps in the model's row order, the springs' potential
+// and the thrusts' forces (the general callbacks every integrator understands), and, when
+// the rows run body by body, the per-body layout of the fused chain step (chain_sweep.cpp).
+#include <nonholo/elements.hpp>
+#include <nonholo/types.hpp>
+
+#include <vector>
+
+namespace nonholo::detail {
+
+// Where a row of mu comes from.
+struct ElementRow {
+  enum Kind : unsigned char { Knife, HitchX, HitchY } kind;
+  int element;  // index into knife_edges or hitches
+};
+
+// One body of a chain as the fused step streams it: its inverse mass, the knife edge on it
+// (flag 1), the hitch from it (rear) to the next body (front) (flag 2, d on this body, f on
+// the next), and the springs joining it to the next body: with D = theta_b - theta_{b+1},
+// sum_i k_i/2 (D - r_i)^2 = k/2 D^2 - kr D + krr/2 (k, kr, krr: sums of k_i, k_i r_i, k_i r_i^2).
+struct ChainBody {
+  double wx, wy, wt;  // diagonal of M^-1
+  double a, d, f, k, kr, krr;
+  int flags;
+};
+inline constexpr int kChainKnife = 1, kChainHitch = 2;
+
+struct ElementSet {
+  std::vector<KnifeEdge> knife_edges;
+  std::vector<Hitch> hitches;
+  std::vector<TorsionalSpring> springs;
+  std::vector<Thrust> thrusts;  // sorted by body in build()
+  std::vector<ElementRow> rows;
+  std::vector<int> value_offset;  // first value of each row (the pattern's row_ptr)
+  std::vector<int> body_offset;   // first coordinate of each body
+
+  // The chain layout, when every body is planar with a diagonal M^-1 and the rows run body
+  // by body as [knife edge of b][hitch b -> b+1 (x, y)] with springs only between
+  // neighbours: then chain.size() == number of bodies. Empty otherwise.
+  std::vector<ChainBody> chain;
+  // The common chain: every body has a knife edge and a hitch to the next, the last only its
+  // knife edge (rows 3b, 3b+1, 3b+2 of body b; kd = 4): the sweep has closed forms for it.
+  bool hitched_chain = false;
+  // Every body has one knife edge and nothing joins their rows (C is diagonal; springs and
+  // thrusts allowed): the step is one sweep (the single sleigh, the spring chain).
+  bool knife_chain = false;
+
+  // The general callbacks (row order, pattern order of values).
+  void values(ConstVecRef q, VecRef mu) const;
+  void bias(ConstVecRef q, ConstVecRef qdot, VecRef bias) const;
+  void gap(ConstVecRef q, VecRef g) const;
+  double potential(ConstVecRef q) const;
+  void gradient(ConstVecRef q, VecRef grad) const;
+  void force(double t, ConstVecRef q, VecRef out) const;
+};
+
+}  // namespace nonholo::detail

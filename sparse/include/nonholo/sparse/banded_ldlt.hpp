@@ -1,0 +1,169 @@
+#pragma once
+// LDL^T of a symmetric positive definite C whose natural order is banded (a chain ordered
+// body by body: half-bandwidth kd = 4), in band storage, without CHOLMOD (DESIGN.md section 7).
+// Row r of the band holds C(r, r-kd .. r) before factorisation and L(r, r-kd .. r-1), 1/D(r)
+// after (a multiplication in the solves instead of a division), so that a caller can also fill and eliminate it one row at a time while it streams
+// over the bodies (the fused chain step, core/src/chain_sweep.cpp): eliminate_row() then
+// forward_row() per row, back_substitute() at the end. No allocation after construction.
+#include <nonholo/sparse/factorization.hpp>
+
+#include <vector>
+
+namespace nonholo::sparse {
+
+// Half-bandwidth of the pattern in its natural order: max over entries (i, j) of i - j.
+int half_bandwidth(const SymmetricPattern& pattern);
+// Auto's test for the banded path: the band, (kd + 1) rows wide, stores at most 4 times the
+// lower triangle's entries (so a few long-reaching rows do not make it wasteful) and
+// kd <= kBandedMaxBandwidth.
+inline constexpr int kBandedMaxBandwidth = 32;
+bool band_is_compact(const SymmetricPattern& pattern);
+
+class BandedLdlt final : public Factorization {
+ public:
+  explicit BandedLdlt(const SymmetricPattern& pattern);
+
+  FactorStatus factorize(const double* c_values, double min_pivot_ratio) override;
+  // C's values written straight into the band (GramAssembler::assemble with slot_positions()):
+  // no copy of C, no c_values buffer (96 MB for a million-body chain).
+  double* values_in_place() override { return band_.data(); }
+  const int* slot_positions() const override { return position_.data(); }
+  FactorStatus factorize_in_place(double min_pivot_ratio) override;
+  FactorStatus solve(const double* b, double* x) override;
+  Backend backend() const override { return Backend::Banded; }
+
+  int bandwidth() const { return kd_; }
+  int stride() const { return kd_ + 1; }
+  // Row r of the band: entry r - kd + t at [t], the diagonal at [kd].
+  double* row(int r) { return band_.data() + static_cast<std::ptrdiff_t>(r) * (kd_ + 1); }
+
+  // --- row by row (fused steps) ---------------------------------------------------------
+  // Starts a factorisation whose rows the caller fills into row(r) (every band entry of the
+  // row, zeros included) and eliminates in order 0, 1, ..., size()-1.
+  void begin_rows();
+  // Eliminates row r (rows before it already eliminated). Returns false when the pivot test
+  // fails; finish_rows() then reports why, as factorize() would. KD >= 0 fixes the bandwidth
+  // at compile time (it must equal bandwidth()): the loops unroll.
+  template <int KD = -1>
+  bool eliminate_row(int r, double min_pivot_ratio) {
+    const int kd = KD >= 0 ? KD : kd_;
+    double* a = row(r);
+    // First valid band column of row r: 0 past the first kd rows (then, with KD fixed, every
+    // loop below has constant bounds and unrolls).
+    const int lo = KD >= 0 && r >= KD ? 0 : (r - kd < 0 ? kd - r : 0);
+    const double diagonal = a[kd];
+    double d = diagonal;
+    double work[KD > 0 ? KD : kBandedMaxBandwidth];  // C(r, s) - ..., i.e. L(r, s) D(s)
+    for (int t = lo; t < kd; ++t) {
+      const double* l = row(r - kd + t);
+      double w = a[t];
+      for (int u = lo; u < t; ++u) w -= work[u] * l[kd - (t - u)];
+      work[t] = w;
+      const double lrs = w * l[kd];  // the band's diagonal holds 1 / D
+      a[t] = lrs;
+      d -= w * lrs;
+    }
+    return accept_pivot(r, a + kd, d, diagonal, min_pivot_ratio);
+  }
+  // y_r = (b_r - sum_s L(r, s) y_s) for s < r: the forward substitution of row r, in place.
+  template <int KD = -1>
+  void forward_row(int r, double* y) {
+    const int kd = KD >= 0 ? KD : kd_;
+    const double* a = row(r);
+    const int lo = KD >= 0 && r >= KD ? 0 : (r - kd < 0 ? kd - r : 0);
+    // Two partial sums: half the latency of one chain of kd subtractions.
+    double v0 = y[r], v1 = 0.0;
+    int t = lo;
+    for (; t + 1 < kd; t += 2) {
+      v0 -= a[t] * y[r - kd + t];
+      v1 += a[t + 1] * y[r - kd + t + 1];
+    }
+    if (t < kd) v0 -= a[t] * y[r - kd + t];
+    y[r] = v0 - v1;
+  }
+  // x_r = y_r / D_r - sum_{s > r} L(s, r) x_s for one row, rows after r already done.
+  template <int KD = -1>
+  void backward_row(int r, double* x) {
+    const int kd = KD >= 0 ? KD : kd_;
+    const int m = size();
+    double v0 = x[r] * row(r)[kd], v1 = 0.0;
+    const int hi = KD >= 0 && r + KD < m ? KD : (r + kd < m ? kd : m - 1 - r);
+    int k = 1;
+    for (; k + 1 <= hi; k += 2) {
+      v0 -= row(r + k)[kd - k] * x[r + k];
+      v1 += row(r + k + 1)[kd - k - 1] * x[r + k + 1];
+    }
+    if (k <= hi) v0 -= row(r + k)[kd - k] * x[r + k];
+    x[r] = v0 - v1;
+  }
+  // The same three steps for a row whose band entries before column LO are structurally zero
+  // (and stay so: an LDL^T row fills only after its first nonzero), or whose column has no
+  // entry below row r + HI, with KD fixed and r away from the ends (r >= KD; r + HI < size()):
+  // constant bounds, no work on the zeros. The common chain's rows (chain_sweep.cpp) have
+  // LO = 2, 1, 0 and HI = 2, 4, 3.
+  template <int KD, int LO>
+  bool eliminate_interior_row(int r, double min_pivot_ratio) {
+    double* a = row(r);
+    const double diagonal = a[KD];
+    double d = diagonal;
+    double work[KD];
+    for (int t = LO; t < KD; ++t) {
+      const double* l = row(r - KD + t);
+      double w = a[t];
+      for (int u = LO; u < t; ++u) w -= work[u] * l[KD - (t - u)];
+      work[t] = w;
+      const double lrs = w * l[KD];
+      a[t] = lrs;
+      d -= w * lrs;
+    }
+    return accept_pivot(r, a + KD, d, diagonal, min_pivot_ratio);
+  }
+  template <int KD, int LO>
+  void forward_interior_row(int r, double* y) {
+    const double* a = row(r);
+    double v0 = y[r], v1 = 0.0;
+    for (int t = LO; t < KD; ++t) (((t - LO) & 1) ? v1 : v0) -= a[t] * y[r - KD + t];
+    y[r] = v0 + v1;
+  }
+  template <int KD, int HI>
+  void backward_interior_row(int r, double* x) {
+    double v0 = x[r] * row(r)[KD], v1 = 0.0;
+    for (int k = 1; k <= HI; ++k) ((k & 1) ? v0 : v1) -= row(r + k)[KD - k] * x[r + k];
+    x[r] = v0 + v1;
+  }
+
+  // After eliminate_row for every row (or the first failing one): the status and message
+  // factorize() would give, and min_pivot_ratio()/min_pivot_row() set.
+  FactorStatus finish_rows(double min_pivot_ratio);
+
+ private:
+  // The pivot test of row r: the ratio d / diagonal is tested by products (a division is on
+  // no critical path but the reciprocal's) and divided out only at a new minimum. On success
+  // the band's diagonal gets 1 / d.
+  bool accept_pivot(int r, double* slot, double d, double diagonal, double min_pivot_ratio) {
+    if (!(diagonal > 0.0 && diagonal < kHuge && d >= min_pivot_ratio * diagonal && d > 0.0)) {
+      bad_row_ = r;
+      bad_pivot_ = d;
+      bad_diagonal_ = diagonal;
+      return false;
+    }
+    *slot = 1.0 / d;
+    if (d < row_min_ratio_ * diagonal) {
+      row_min_ratio_ = d / diagonal;
+      row_min_row_ = r;
+    }
+    return true;
+  }
+  template <int KD>
+  void solve_fixed(double* x);
+  int kd_;
+  std::vector<double> band_;
+  std::vector<int> position_;  // slot of C's pattern -> index in band_
+  std::vector<int> outside_;   // band entries outside the pattern (zeroed before each factorisation)
+  std::vector<double> work_;   // kd entries: row r times D, the elimination's running row
+  static constexpr double kHuge = 1.7976931348623157e308;  // largest finite double
+  double row_min_ratio_ = 0.0, bad_pivot_ = 0.0, bad_diagonal_ = 0.0;
+  int row_min_row_ = -1, bad_row_ = -1;  // bad_row_: the row whose pivot test failed
+};
+
+}  // namespace nonholo::sparse

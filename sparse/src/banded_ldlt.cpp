@@ -1,0 +1,118 @@
+#include <nonholo/sparse/banded_ldlt.hpp>
+
+#include <nonholo/sparse/structure.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace nonholo::sparse {
+
+int half_bandwidth(const SymmetricPattern& pattern) {
+  int kd = 0;
+  for (int j = 0; j < pattern.size; ++j)
+    for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) kd = std::max(kd, pattern.row_idx[s] - j);
+  return kd;
+}
+
+bool band_is_compact(const SymmetricPattern& pattern) {
+  const int kd = half_bandwidth(pattern);
+  return kd <= kBandedMaxBandwidth && static_cast<long long>(kd + 1) * pattern.size <= 4LL * pattern.nnz();
+}
+
+BandedLdlt::BandedLdlt(const SymmetricPattern& pattern)
+    : Factorization(pattern.size), kd_(half_bandwidth(pattern)) {
+  check_pattern(pattern);
+  band_.assign(static_cast<std::size_t>(pattern.size) * (kd_ + 1), 0.0);
+  position_.resize(pattern.nnz());
+  for (int j = 0; j < pattern.size; ++j)
+    for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) {
+      const int i = pattern.row_idx[s];
+      position_[s] = i * (kd_ + 1) + kd_ - (i - j);
+    }
+  work_.assign(kd_ + 1, 0.0);
+  std::vector<char> inside(band_.size(), 0);
+  for (int at : position_) inside[static_cast<std::size_t>(at)] = 1;
+  for (int r = 0; r < pattern.size; ++r)
+    for (int t = std::max(0, kd_ - r); t < kd_; ++t)  // the diagonal (t = kd) is always in it
+      if (!inside[static_cast<std::size_t>(r) * (kd_ + 1) + t]) outside_.push_back(r * (kd_ + 1) + t);
+}
+
+FactorStatus BandedLdlt::factorize_in_place(double min_pivot_ratio) {
+  for (int at : outside_) band_[static_cast<std::size_t>(at)] = 0.0;  // L's fill from the last time
+  begin_rows();
+  for (int r = 0; r < size(); ++r)
+    if (!eliminate_row(r, min_pivot_ratio)) break;
+  return finish_rows(min_pivot_ratio);
+}
+
+void BandedLdlt::begin_rows() {
+  row_min_ratio_ = size() == 0 ? 1.0 : std::numeric_limits<double>::infinity();
+  row_min_row_ = -1;
+  bad_row_ = -1;
+}
+
+FactorStatus BandedLdlt::finish_rows(double min_pivot_ratio) {
+  if (bad_row_ < 0) {
+    set_pivot_summary(row_min_ratio_, row_min_row_);
+    set_failed_row(-1);
+    clear_message();
+    return FactorStatus::Ok;
+  }
+  const int r = bad_row_;
+  const double ratio = bad_pivot_ / bad_diagonal_;
+  set_pivot_summary(ratio, r);
+  set_failed_row(r);
+  if (!std::isfinite(bad_pivot_) || !std::isfinite(bad_diagonal_))
+    return fail(FactorStatus::NonFinite, "row %d of C: pivot %g, diagonal %g", r, bad_pivot_, bad_diagonal_);
+  if (!(bad_diagonal_ > 0.0))
+    return fail(FactorStatus::NotPositiveDefinite, "row %d of C has diagonal %g: that one-form vanishes here", r,
+                bad_diagonal_);
+  if (!(ratio > 0.0))
+    return fail(FactorStatus::NotPositiveDefinite,
+                "pivot of row %d of C is %g times its diagonal: the one-forms are dependent", r, ratio);
+  return fail(FactorStatus::NearlySingular,
+              "pivot of row %d of C is %.3g times its diagonal (tolerance %.3g): the one-forms are nearly "
+              "dependent",
+              r, ratio, min_pivot_ratio);
+}
+
+FactorStatus BandedLdlt::factorize(const double* c_values, double min_pivot_ratio) {
+  // Entries of the band outside the pattern (fill) must start at zero.
+  std::fill(band_.begin(), band_.end(), 0.0);
+  for (std::size_t s = 0; s < position_.size(); ++s) band_[position_[s]] = c_values[s];
+  begin_rows();
+  for (int r = 0; r < size(); ++r)
+    if (!eliminate_row(r, min_pivot_ratio)) break;
+  return finish_rows(min_pivot_ratio);
+}
+
+// The substitutions with the bandwidth fixed at compile time, the rows away from the ends
+// with constant loop bounds: the solve is a chain of dependent multiply-adds, and the loops
+// with run-time bounds cost twice as much (measured in the holonomic chain step).
+template <int KD>
+void BandedLdlt::solve_fixed(double* x) {
+  const int m = size();
+  for (int r = 0; r < m && r < KD; ++r) forward_row<KD>(r, x);
+  for (int r = KD; r < m; ++r) forward_interior_row<KD, 0>(r, x);
+  for (int r = m - 1; r >= 0 && r + KD >= m; --r) backward_row<KD>(r, x);
+  for (int r = m - KD - 1; r >= 0; --r) backward_interior_row<KD, KD>(r, x);
+}
+
+FactorStatus BandedLdlt::solve(const double* b, double* x) {
+  const int m = size();
+  if (x != b) std::copy(b, b + m, x);
+  switch (kd_) {
+    case 0: solve_fixed<0>(x); break;
+    case 1: solve_fixed<1>(x); break;
+    case 2: solve_fixed<2>(x); break;
+    case 3: solve_fixed<3>(x); break;
+    case 4: solve_fixed<4>(x); break;
+    default:
+      for (int r = 0; r < m; ++r) forward_row(r, x);
+      for (int r = m - 1; r >= 0; --r) backward_row(r, x);
+  }
+  return FactorStatus::Ok;
+}
+
+}  // namespace nonholo::sparse

@@ -1,0 +1,274 @@
+// The fused chain step (core/src/chain_sweep.cpp) against the step built from separate passes
+// around CHOLMOD (rattle.cpp's general path) on the same states; its diagnostics against
+// diagnose(); its failures; and the element API's checks (nonholo/elements.hpp).
+#include <nonholo/diagnostics.hpp>
+#include <nonholo/dynamics.hpp>
+#include <nonholo/model_builder.hpp>
+#include <nonholo/rattle.hpp>
+#include <nonholo/restart.hpp>
+#include <nonholo/scenarios/scene.hpp>
+#include <nonholo/start.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "support/expect_error.hpp"
+
+namespace nonholo {
+namespace {
+
+using sparse::Backend;
+
+scenarios::SceneSetup scene(const std::string& name, const std::vector<std::string>& sets) {
+  const auto& info = scenarios::find_scene(name);
+  auto p = info.defaults();
+  for (const auto& s : sets) p.assign(s);
+  return info.build(p);
+}
+
+double relative(const Vector& a, const Vector& b) {
+  const double scale = std::max(1.0, b.lpNorm<Eigen::Infinity>());
+  return (a - b).lpNorm<Eigen::Infinity>() / scale;
+}
+
+struct Case {
+  std::string scene;
+  std::vector<std::string> sets;
+};
+
+const std::vector<Case> kCases{
+    {"sleigh", {}},
+    {"sleigh_chain", {"bodies=1"}},
+    {"sleigh_chain", {"bodies=40"}},
+    {"sleigh_chain", {"bodies=40", "k=3"}},                // springs: forces at t_{k+1} one body ahead
+    {"sleigh_chain", {"bodies=40", "hitched=0", "k=2"}},  // C diagonal (kd = 0)
+    {"wheeled_train", {"bodies=30"}},                     // thrust, generated parameters
+};
+
+// From the same state at many points of a trajectory, one fused step and one step of the
+// general path forced through CHOLMOD: the same q, p~, lambda~ and force to 1e-12 relative,
+// in both hitch modes, with the period-2 mode's measurement and restarts as by default.
+TEST(ChainSweep, AgreesWithTheGeneralPathThroughCholmod) {
+  for (const Case& c : kCases)
+    for (HitchMode hitch : {HitchMode::OneForm, HitchMode::Holonomic}) {
+      const auto setup = scene(c.scene, c.sets);
+      const Model& model = setup.model;
+      ASSERT_TRUE(model.is_chain()) << c.scene;
+      Workspace fused(model), general(model, {Backend::CholmodNatural});
+      ASSERT_TRUE(fused.fused());
+      ASSERT_FALSE(general.fused());
+      ASSERT_STREQ(fused.backend_name(), "banded");
+      RattleOptions o;
+      o.hitch = hitch;
+      State s = start_from_velocity(model, fused, 0.0, setup.q0, setup.v0);
+      double worst = 0.0;
+      for (int k = 0; k < 300; ++k) {
+        State a = s, b = s;
+        ASSERT_EQ(step(model, fused, a, o), Status::Ok) << fused.message();
+        ASSERT_EQ(step(model, general, b, o), Status::Ok) << general.message();
+        worst = std::max({worst, relative(a.q, b.q), relative(a.p, b.p), relative(a.lambda, b.lambda),
+                          relative(a.force, b.force)});
+        EXPECT_EQ(a.restarts, b.restarts);
+        s = a;
+      }
+      EXPECT_LE(worst, 1e-12) << c.scene << " " << (c.sets.empty() ? "" : c.sets[0]) << " " << to_string(hitch);
+    }
+}
+
+// The workspace caches mu(q), C(q) and sin/cos(q) between steps, and fills mu lazily after a
+// one-form step: switching hitch modes, restarting and diagnosing between steps must never
+// read a stale cache. Same trajectory as the general path through CHOLMOD.
+TEST(ChainSweep, CachesStayRightAcrossModesRestartsAndDiagnostics) {
+  const auto setup = scene("sleigh_chain", {"bodies=12", "k=2"});
+  const Model& model = setup.model;
+  Workspace fused(model), general(model, {Backend::CholmodNatural}), probe(model);
+  State a = start_from_velocity(model, fused, 0.0, setup.q0, setup.v0);
+  double worst = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    RattleOptions o;
+    o.hitch = (k / 3) % 2 ? HitchMode::Holonomic : HitchMode::OneForm;
+    if (k % 7 == 0) o.restart.monitor_every = 1;
+    State b = a;  // the same state; the general workspace's caches never hold it
+    ASSERT_EQ(step(model, fused, a, o), Status::Ok) << fused.message();
+    ASSERT_EQ(step(model, general, b, o), Status::Ok) << general.message();
+    worst = std::max({worst, relative(a.q, b.q), relative(a.p, b.p), relative(a.lambda, b.lambda)});
+    if (k % 5 == 0) {  // diagnose and restart on the fused workspace between steps
+      EXPECT_NEAR(diagnose(model, fused, a, o.h).residual, diagnose(model, probe, a, o.h).residual, 1e-15);
+      State c = a;
+      ASSERT_EQ(restart(model, fused, a, o), Status::Ok);
+      ASSERT_EQ(restart(model, general, c, o), Status::Ok);
+      worst = std::max({worst, relative(a.p, c.p), relative(a.lambda, c.lambda)});
+    }
+  }
+  EXPECT_LE(worst, 1e-12);
+}
+
+// The whole trajectory at orders 4 and 6 (composed of fused substeps) against the general path.
+TEST(ChainSweep, ComposedStepsAgreeWithTheGeneralPath) {
+  const auto setup = scene("sleigh_chain", {"bodies=20", "k=1"});
+  for (int order : {4, 6}) {
+    RattleOptions o;
+    o.order = order;
+    o.hitch = HitchMode::OneForm;
+    Workspace fused(setup.model), general(setup.model, {Backend::CholmodNatural});
+    State a = start_from_velocity(setup.model, fused, 0.0, setup.q0, setup.v0);
+    State b = a;
+    for (int k = 0; k < 100; ++k) {
+      ASSERT_EQ(step(setup.model, fused, a, o), Status::Ok) << fused.message();
+      ASSERT_EQ(step(setup.model, general, b, o), Status::Ok) << general.message();
+    }
+    EXPECT_LE(relative(a.q, b.q), 1e-11) << order;
+    EXPECT_LE(relative(a.p, b.p), 1e-11) << order;
+  }
+}
+
+// What the sweeps compute for `nonholo run` equals diagnose() of the state they produced.
+TEST(ChainSweep, ItsDiagnosticsAreDiagnose) {
+  for (const Case& c : kCases) {
+    const auto setup = scene(c.scene, c.sets);
+    const Model& model = setup.model;
+    Workspace ws(model), other(model);
+    RattleOptions o;
+    o.hitch = HitchMode::OneForm;
+    o.restart.mode = RestartMode::Never;  // a restart changes p~ after the sweep: not reused then
+    State s = start_from_velocity(model, ws, 0.0, setup.q0, setup.v0);
+    for (int k = 0; k < 50; ++k) {
+      ASSERT_EQ(step(model, ws, s, o), Status::Ok);
+      ASSERT_EQ(ws.step_diagnostics.q, s.q.data()) << "the fused step filled its diagnostics";
+      const Diagnostics fast = diagnose_step(model, ws, s, o.h), full = diagnose(model, other, s, o.h);
+      const double e = std::abs(full.energy);
+      EXPECT_NEAR(fast.energy, full.energy, 1e-13 * e) << c.scene;
+      EXPECT_NEAR(fast.energy_post, full.energy_post, 1e-13 * e) << c.scene;
+      EXPECT_NEAR(fast.residual, full.residual, 1e-15) << c.scene;
+      EXPECT_NEAR(fast.gap, full.gap, 1e-14) << c.scene;
+    }
+    // A state changed since the step (another buffer) is diagnosed afresh.
+    State copy = s;
+    copy.p *= 2.0;
+    const Diagnostics d = diagnose_step(model, ws, copy, o.h);
+    EXPECT_NEAR(d.energy, diagnose(model, other, copy, o.h).energy, 1e-12 * std::abs(d.energy));
+  }
+}
+
+// A failed pivot test on the fused path: the general path's status and message (naming the
+// row), the state untouched, and the next step on the same workspace still right.
+TEST(ChainSweep, AFailedPivotLeavesTheStateAsItWas) {
+  const auto setup = scene("sleigh_chain", {"bodies=10"});
+  const Model& model = setup.model;
+  Workspace ws(model), general(model, {Backend::CholmodNatural});
+  State s = start_from_velocity(model, ws, 0.0, setup.q0, setup.v0);
+  ASSERT_EQ(step(model, ws, s, {0.01}), Status::Ok);
+  const State before = s;
+  RattleOptions strict;
+  strict.min_pivot_ratio = 0.9;  // every coupled row of a chain has a pivot ratio below this
+  const Status fused_status = step(model, ws, s, strict);
+  EXPECT_EQ(fused_status, Status::NearlyDependentOneForms) << ws.message();
+  EXPECT_NE(std::string(ws.message()).find("pivot of row"), std::string::npos) << ws.message();
+  EXPECT_TRUE(s.q == before.q && s.p == before.p && s.lambda == before.lambda && s.force == before.force);
+  State b = before;
+  EXPECT_EQ(step(model, general, b, strict), Status::NearlyDependentOneForms);
+  State a = before;
+  b = before;
+  ASSERT_EQ(step(model, ws, a, {0.01}), Status::Ok) << ws.message();
+  ASSERT_EQ(step(model, general, b, {0.01}), Status::Ok);
+  EXPECT_LE(relative(a.p, b.p), 1e-12);
+}
+
+// A blow-up inside the sweep (a non-finite thrust) is reported, not committed.
+TEST(ChainSweep, NonFiniteForcesAreRefused) {
+  ModelBuilder b;
+  for (int i = 0; i < 3; ++i) b.add_planar_body({"x" + std::to_string(i), "y" + std::to_string(i), "t" + std::to_string(i)}, 1, 1);
+  for (int i = 0; i < 3; ++i) {
+    b.add_knife_edge({i, 0.2});
+    if (i < 2) b.add_hitch({i, i + 1, 0.5, 0.5});
+  }
+  b.add_thrust({1, [](double t) { return t > 0.015 ? NAN : 1.0; }, nullptr});
+  const Model model = b.build();
+  ASSERT_TRUE(model.is_chain());
+  Workspace ws(model);
+  Vector q0 = Vector::Zero(9), v0 = Vector::Zero(9);
+  q0[3] = -1.0, q0[6] = -2.0, v0[0] = v0[3] = v0[6] = 1.0;
+  State s = start_from_velocity(model, ws, 0.0, q0, v0);
+  ASSERT_EQ(step(model, ws, s, {0.01}), Status::Ok);
+  const State before = s;
+  EXPECT_EQ(step(model, ws, s, {0.01}), Status::NonFiniteState) << ws.message();
+  EXPECT_TRUE(s.q == before.q && s.p == before.p);
+}
+
+// Element models that are not chains (a hitch between bodies 0 and 2, rows out of body order)
+// still run, on the general path, and agree with the same system on CHOLMOD.
+TEST(ChainSweep, ElementModelsThatAreNotChainsUseTheGeneralPath) {
+  ModelBuilder b;
+  for (int i = 0; i < 3; ++i) b.add_planar_body({"x" + std::to_string(i), "y" + std::to_string(i), "t" + std::to_string(i)}, 1, 2);
+  b.add_knife_edge({1, 0.2});
+  b.add_knife_edge({0, 0.1});  // out of body order
+  b.add_hitch({0, 2, 0.5, 0.5});
+  b.add_torsional_spring({0, 2, 1.0});
+  const Model model = b.build();
+  EXPECT_FALSE(model.is_chain());
+  Workspace ws(model);
+  EXPECT_FALSE(ws.fused());
+  Vector q0 = Vector::Zero(9), v0 = Vector::Zero(9);
+  q0[6] = -1.0, v0[0] = v0[6] = 1.0, v0[4] = 0.3;
+  State s = start_from_velocity(model, ws, 0.0, q0, v0);
+  for (int k = 0; k < 100; ++k) ASSERT_EQ(step(model, ws, s, {0.01}), Status::Ok) << ws.message();
+  EXPECT_LE(diagnose(model, ws, s, 0.01).gap, 1e-12);
+}
+
+// Element rows evaluate their own bias: it equals the central difference of their values.
+TEST(Elements, BiasIsTheDerivativeOfTheRows) {
+  const auto setup = scene("wheeled_train", {"bodies=6"});
+  const Model& model = setup.model;
+  const int n = model.num_coordinates(), nnz = model.num_one_form_values();
+  Vector q = setup.q0, v(n);
+  for (int i = 0; i < n; ++i) {
+    q[i] += 0.3 * std::sin(1.7 * i);
+    v[i] = std::cos(2.3 * i);
+  }
+  Vector bias(model.num_one_forms()), mu_p(nnz), mu_m(nnz), fd(model.num_one_forms());
+  model.analytic_bias(q, v, bias);
+  const double d = 1e-6;
+  model.one_form_values(q + d * v, mu_p);
+  model.one_form_values(q - d * v, mu_m);
+  model.mu_times(Vector((mu_p - mu_m) / (2 * d)).data(), v.data(), fd.data());
+  EXPECT_LE((bias - fd).lpNorm<Eigen::Infinity>(), 1e-8);
+}
+
+TEST(Elements, BadElementsAreRefusedClearly) {
+  using testing::expect_error;
+  ModelBuilder b;
+  b.add_planar_body({"x", "y", "t"}, 1, 1);
+  b.add_body({"s"}, Eigen::MatrixXd::Identity(1, 1));
+  expect_error([&] { b.add_knife_edge({2, 0.1}); }, "knife edge: body 2 is out of range (the model has 2 bodies");
+  expect_error([&] { b.add_knife_edge({1, 0.1}); }, "knife edge: body 1 has 1 coordinates; elements act on planar bodies");
+  expect_error([&] { b.add_knife_edge({0, NAN}); }, "knife edge: a = nan must be finite");
+  expect_error([&] { b.add_hitch({0, 0, 0.5, 0.5}); }, "hitch: joins body 0 to itself");
+  expect_error([&] { b.add_torsional_spring({0, 0, 1.0}); }, "torsional spring: joins body 0 to itself");
+  expect_error([&] { b.add_thrust({0, nullptr, nullptr}); }, "thrust on body 0: no force and no torque");
+
+  ModelBuilder mixed;
+  mixed.add_planar_body({"x", "y", "t"}, 1, 1);
+  mixed.add_knife_edge({0, 0.1});
+  mixed.add_one_form({0, 1});
+  mixed.one_form_values([](ConstVecRef, VecRef v) { v.setZero(); });
+  expect_error([&] { mixed.build(); }, "1 rows from elements (knife edges, hitches) and 1 from add_one_form");
+
+  ModelBuilder callbacks;
+  callbacks.add_planar_body({"x", "y", "t"}, 1, 1);
+  callbacks.add_knife_edge({0, 0.1});
+  callbacks.one_form_values([](ConstVecRef, VecRef v) { v.setZero(); });
+  expect_error([&] { callbacks.build(); }, "do not also give one_form_values");
+
+  ModelBuilder spring;
+  spring.add_planar_body({"x", "y", "t"}, 1, 1);
+  spring.add_planar_body({"x1", "y1", "t1"}, 1, 1);
+  spring.add_torsional_spring({0, 1, 1.0});
+  spring.potential([](ConstVecRef) { return 0.0; }, [](ConstVecRef, VecRef g) { g.setZero(); });
+  expect_error([&] { spring.build(); }, "torsional springs make the model's potential");
+}
+
+}  // namespace
+}  // namespace nonholo
