@@ -14,8 +14,6 @@ std::string Model::describe_row(int r) const {
   return "one-form row " + std::to_string(r) + (label.empty() ? "" : " (" + label + ")");
 }
 
-bool Model::element_set_is_hitched_chain() const { return is_chain() && elements_->hitched_chain; }
-
 bool Model::is_chain() const { return elements_ && !elements_->chain.empty() && num_one_forms() > 0; }
 
 void Model::applied_force(double t, ConstVecRef q, VecRef f, VecRef scratch) const {

@@ -21,6 +21,7 @@
 
 #include "callback_guard.hpp"
 #include "chain_sweep.hpp"
+#include "element_set.hpp"
 #include "option_checks.hpp"
 #include "rattle_internal.hpp"
 #include "restart_internal.hpp"
@@ -119,7 +120,7 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
   ws.gap_multiplier.setZero();
   // A chain of knife edges and hitches: each gap pass and correction in one pass over the
   // bodies (chain_sweep.cpp); the last gap pass leaves sin/cos of q_{k+1} for the sweep.
-  const bool chain = ws.fused() && model.element_set_is_hitched_chain();
+  const bool chain = ws.fused() && model.element_set()->hitched_chain;
   for (int it = 0;; ++it) {
     double worst;
     if (chain) {

@@ -86,7 +86,6 @@ class Model {
   // Whether the explicit step can stream this model body by body (element_set.hpp's chain
   // layout): the banded backend is then chosen by Backend::Auto.
   bool is_chain() const;
-  bool element_set_is_hitched_chain() const;  // knife edge and hitch on every body (internal)
 
   // Sparse products with the one-form values (nnz entries, pattern order).
   void mu_times(const double* mu, const double* x, double* y) const;            // y = mu x
