@@ -17,59 +17,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "chain_rows.hpp"
 #include "chain_sweep.hpp"
 #include "element_set.hpp"
 
 namespace nonholo::detail {
 namespace {
-
-// A group's rows restricted to its own body (u) and to the next body (v), each on (x, y,
-// theta); at most three rows (knife edge, hitch x, hitch y).
-struct Group {
-  int rows = 0;
-  double u[3][3] = {}, v[3][3] = {};
-};
-
-// The rows of body b's group from the sin/cos of b and of b+1; writes their values of mu in
-// pattern order at `mu` (when not null) and returns how many values that was.
-inline int group_rows(const ChainBody& b, const double* sc, const double* sc_next, Group& g, double* mu) {
-  int r = 0, k = 0;
-  if (b.flags & kChainKnife) {
-    const double s = sc[0], c = sc[1];
-    g.u[r][0] = s, g.u[r][1] = -c, g.u[r][2] = b.a;
-    g.v[r][0] = g.v[r][1] = g.v[r][2] = 0.0;
-    if (mu) mu[0] = s, mu[1] = -c, mu[2] = b.a;
-    ++r;
-    k += 3;
-  }
-  if (b.flags & kChainHitch) {
-    const double s = sc[0], c = sc[1], sn = sc_next[0], cn = sc_next[1];
-    // x row on (x_b, theta_b, x_{b+1}, theta_{b+1}): [1, d s, -1, f s']; y row: [1, -d c, -1, -f c'].
-    g.u[r][0] = 1.0, g.u[r][1] = 0.0, g.u[r][2] = b.d * s;
-    g.v[r][0] = -1.0, g.v[r][1] = 0.0, g.v[r][2] = b.f * sn;
-    g.u[r + 1][0] = 0.0, g.u[r + 1][1] = 1.0, g.u[r + 1][2] = -b.d * c;
-    g.v[r + 1][0] = 0.0, g.v[r + 1][1] = -1.0, g.v[r + 1][2] = -b.f * cn;
-    if (mu) {
-      double* x = mu + k;
-      x[0] = 1.0, x[1] = b.d * s, x[2] = -1.0, x[3] = b.f * sn;
-      x[4] = 1.0, x[5] = -b.d * c, x[6] = -1.0, x[7] = -b.f * cn;
-    }
-    r += 2;
-    k += 8;
-  }
-  g.rows = r;
-  return k;
-}
-
-// sin and cos of one angle in one call (glibc's sincos: about half the cost of both).
-inline void sin_cos(double x, double* out) {
-#if defined(__GLIBC__)
-  ::sincos(x, out, out + 1);
-#else
-  out[0] = std::sin(x);
-  out[1] = std::cos(x);
-#endif
-}
 
 // A sum over a million bodies in blocks of 64: its round-off grows like (64 + N/64) eps
 // rather than N eps (the energies of a 10^5-body chain: 7e-12 relative in one running sum).
@@ -89,7 +42,7 @@ struct BlockSum {
 
 // What every sweep does as body i enters the forward sweep: the half kick and drift (unless
 // holonomic mode did them, `kicked`), the cache key, the sums for energy_post and the
-// finiteness check, sin/cos of the new angle (unless chain_gap_rhs left them), and with
+// finiteness check, sin/cos of the new angle (unless the holonomic gap pass left them), and with
 // forces, body i's thrusts and the springs between bodies i-1 and i at t_{k+1} (then body
 // i-1's applied force is complete).
 // A row failed its pivot test: the status and message factorize() would give.
@@ -527,100 +480,6 @@ Status sweep_knives(const Model& model, Workspace& ws, const State& st, const Ra
 }
 
 }  // namespace
-
-void chain_one_forms_from_sincos(const Model& model, Workspace& ws) {
-  const ElementSet& set = *model.element_set();
-  const int n_bodies = static_cast<int>(set.chain.size());
-  const double* sc = ws.chain_sincos.data();
-  double* mu = ws.mu_values.data();
-  Group g;
-  int at = 0;
-  for (int b = 0; b < n_bodies; ++b)
-    at += group_rows(set.chain[b], sc + 2 * b, b + 1 < n_bodies ? sc + 2 * b + 2 : sc + 2 * b, g, mu + at);
-}
-
-void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef qdot, VecRef bias) {
-  // Knife edge: w (c x' + s y'); hitch x: d c w^2 + f c' w'^2; hitch y: the same with sines.
-  const ElementSet& set = *model.element_set();
-  const int n_bodies = static_cast<int>(set.chain.size());
-  const double* sc = ws.chain_sincos.data();
-  const double* v = qdot.data();
-  double* out = bias.data();
-  int r = 0;
-  for (int b = 0; b < n_bodies; ++b) {
-    const ChainBody& cb = set.chain[b];
-    const double s = sc[2 * b], c = sc[2 * b + 1], w = v[3 * b + 2];
-    if (cb.flags & kChainKnife) out[r++] = w * (c * v[3 * b] + s * v[3 * b + 1]);
-    if (cb.flags & kChainHitch) {
-      const double sn = sc[2 * b + 2], cn = sc[2 * b + 3], wn = v[3 * b + 5];
-      out[r++] = cb.d * c * w * w + cb.f * cn * wn * wn;
-      out[r++] = cb.d * s * w * w + cb.f * sn * wn * wn;
-    }
-  }
-}
-
-double chain_gap_rhs(const Model& model, Workspace& ws, double scale) {
-  const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
-  const ElementSet& set = *model.element_set();
-  const ChainBody* body = set.chain.data();
-  const int n_bodies = static_cast<int>(set.chain.size());
-  const double* qn = ws.q_next.data();
-  ws.forget_sincos();  // they are q_{k+1}'s from here on
-  double* sc = ws.chain_sincos.data();
-  double* rhs = ws.rhs.data();
-  double worst = 0.0;
-  sin_cos(qn[2], sc);
-  for (int b = 0; b + 1 < n_bodies; ++b) {
-    const double* a = qn + 3 * b;
-    sin_cos(a[5], sc + 2 * b + 2);
-    const ChainBody& cb = body[b];
-    const double gx = a[0] - cb.d * sc[2 * b + 1] - a[3] - cb.f * sc[2 * b + 3];
-    const double gy = a[1] - cb.d * sc[2 * b] - a[4] - cb.f * sc[2 * b + 2];
-    worst = std::max(worst, std::max(std::abs(gx), std::abs(gy)));
-    if (!(gx == gx && gy == gy)) worst = gx + gy;  // NaN wins
-    rhs[3 * b] = 0.0;
-    rhs[3 * b + 1] = scale * gx;
-    rhs[3 * b + 2] = scale * gy;
-  }
-  rhs[3 * (n_bodies - 1)] = 0.0;
-  return worst;
-}
-
-void chain_gap_correction(const Model& model, Workspace& ws, const double* dl, double h) {
-  const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
-  const ElementSet& set = *model.element_set();
-  const ChainBody* body = set.chain.data();
-  const int n_bodies = static_cast<int>(set.chain.size());
-  const double* mu = ws.mu_values.data();
-  double* ph = ws.p_half.data();
-  double* qn = ws.q_next.data();
-  const double half = 0.5 * h, drift = 0.5 * h * h;
-  for (int b = 0; b < n_bodies; ++b) {
-    // mu^T dlambda on body b: its knife edge [s, -c, a] and hitch rows [1, d s | ...],
-    // [1, -d c | ...] (values 11 b ...), the previous hitch's [... | -1, f s] and [... | -1, -f c].
-    const double* m = mu + 11 * b;
-    const double lk = dl[3 * b];
-    double g[3] = {m[0] * lk, m[1] * lk, m[2] * lk};
-    if (b + 1 < n_bodies) {
-      const double lx = dl[3 * b + 1], ly = dl[3 * b + 2];
-      g[0] += m[3] * lx;
-      g[1] += m[7] * ly;
-      g[2] += m[4] * lx + m[8] * ly;
-    }
-    if (b > 0) {
-      const double* mp = mu + 11 * (b - 1);
-      const double px = dl[3 * b - 2], py = dl[3 * b - 1];
-      g[0] += mp[5] * px;
-      g[1] += mp[9] * py;
-      g[2] += mp[6] * px + mp[10] * py;
-    }
-    const ChainBody& cb = body[b];
-    for (int c = 0; c < 3; ++c) {
-      ph[3 * b + c] += half * g[c];
-      qn[3 * b + c] += drift * (&cb.wx)[c] * g[c];
-    }
-  }
-}
 
 Status chain_sweep(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
                    double t_next, bool kicked, double& check) {

@@ -55,10 +55,12 @@ double chain_gap_rhs(const Model& model, Workspace& ws, double scale);
 void chain_gap_correction(const Model& model, Workspace& ws, const double* dlambda, double h);
 
 // From the state at t_k to ws.q_next, p_next, lambda, force_next (and ws.applied, the applied
-// force at t_{k+1}) as detail::advance computes them; mu(q_{k+1}) in ws.mu_values and C(q_{k+1})
-// factorised; ws.step_diagnostics filled (its q and steps are set by the caller on commit).
+// force at t_{k+1}) as detail::advance computes them; C(q_{k+1}) factorised and mu(q_{k+1})
+// in ws.mu_values in holonomic mode (else filled when asked for, Workspace::evaluate_one_forms);
+// ws.step_diagnostics filled (its q and steps are set by the caller on commit).
 // `kicked`: ws.p_half and ws.q_next already hold the first half kick and drift (holonomic
-// mode after enforce_gaps; on the common chain, ws.chain_sincos then holds their sin/cos). `check` accumulates q, p and force (non-finite when they are).
+// mode after enforce_gaps; on the common chain, ws.chain_sincos then holds their sin/cos).
+// `check` accumulates q, p and force (non-finite when they are).
 // Never throws (thrust callbacks are guarded by the caller); the state is not touched.
 Status chain_sweep(const Model& model, Workspace& ws, const State& state, const RattleOptions& options, double h,
                    double t_next, bool kicked, double& check);

@@ -1,0 +1,59 @@
+#pragma once
+// The rows of one body of a chain of elements (element_set.hpp's chain layout) from the sin
+// and cos of its angle and of the next body's: shared by the fused sweeps (chain_sweep.cpp)
+// and the passes around them (chain_passes.cpp).
+#include <cmath>
+
+#include "element_set.hpp"
+
+namespace nonholo::detail {
+
+// A group's rows restricted to its own body (u) and to the next body (v), each on (x, y,
+// theta); at most three rows (knife edge, hitch x, hitch y).
+struct Group {
+  int rows = 0;
+  double u[3][3] = {}, v[3][3] = {};
+};
+
+// The rows of body b's group from the sin/cos of b and of b+1; writes their values of mu in
+// pattern order at `mu` (when not null) and returns how many values that was.
+inline int group_rows(const ChainBody& b, const double* sc, const double* sc_next, Group& g, double* mu) {
+  int r = 0, k = 0;
+  if (b.flags & kChainKnife) {
+    const double s = sc[0], c = sc[1];
+    g.u[r][0] = s, g.u[r][1] = -c, g.u[r][2] = b.a;
+    g.v[r][0] = g.v[r][1] = g.v[r][2] = 0.0;
+    if (mu) mu[0] = s, mu[1] = -c, mu[2] = b.a;
+    ++r;
+    k += 3;
+  }
+  if (b.flags & kChainHitch) {
+    const double s = sc[0], c = sc[1], sn = sc_next[0], cn = sc_next[1];
+    // x row on (x_b, theta_b, x_{b+1}, theta_{b+1}): [1, d s, -1, f s']; y row: [1, -d c, -1, -f c'].
+    g.u[r][0] = 1.0, g.u[r][1] = 0.0, g.u[r][2] = b.d * s;
+    g.v[r][0] = -1.0, g.v[r][1] = 0.0, g.v[r][2] = b.f * sn;
+    g.u[r + 1][0] = 0.0, g.u[r + 1][1] = 1.0, g.u[r + 1][2] = -b.d * c;
+    g.v[r + 1][0] = 0.0, g.v[r + 1][1] = -1.0, g.v[r + 1][2] = -b.f * cn;
+    if (mu) {
+      double* x = mu + k;
+      x[0] = 1.0, x[1] = b.d * s, x[2] = -1.0, x[3] = b.f * sn;
+      x[4] = 1.0, x[5] = -b.d * c, x[6] = -1.0, x[7] = -b.f * cn;
+    }
+    r += 2;
+    k += 8;
+  }
+  g.rows = r;
+  return k;
+}
+
+// sin and cos of one angle in one call (glibc's sincos: about half the cost of both).
+inline void sin_cos(double x, double* out) {
+#if defined(__GLIBC__)
+  ::sincos(x, out, out + 1);
+#else
+  out[0] = std::sin(x);
+  out[1] = std::cos(x);
+#endif
+}
+
+}  // namespace nonholo::detail
