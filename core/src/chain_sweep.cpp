@@ -56,6 +56,7 @@ struct Forward {
   const ChainBody* body;
   const double *q, *p, *force;
   double *qn, *ph, *fa, *key, *sc;
+  double *pn, *fn, *lam, *mu;  // p^ then p~_{k+1}; force_{k+1}; rhs, y, then lambda~; mu values
   double h, t_next;
   bool kicked, forced;
   std::size_t next_thrust = 0;
@@ -65,7 +66,8 @@ struct Forward {
   Forward(const Model& model, Workspace& ws, const State& st, double step, double t, bool was_kicked)
       : set(*model.element_set()), body(set.chain.data()), q(st.q.data()), p(st.p.data()),
         force(st.force.data()), qn(ws.q_next.data()), ph(was_kicked ? ws.p_half.data() : ws.p_next.data()),
-        fa(ws.applied.data()), key(ws.one_form_key()), sc(ws.chain_sincos.data()), h(step), t_next(t),
+        fa(ws.applied.data()), key(ws.one_form_key()), sc(ws.chain_sincos.data()), pn(ws.p_next.data()),
+        fn(ws.force_next.data()), lam(ws.lambda.data()), mu(ws.mu_values.data()), h(step), t_next(t),
         kicked(was_kicked), forced(model.has_applied_force()) {}
 
   // The sweeps' common end: the pivot summary, the caches (mu written or left to
@@ -143,17 +145,9 @@ Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOpt
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
 
-  double* qn = ws.q_next.data();
-  double* ph = kicked ? ws.p_half.data() : ws.p_next.data();  // p_{k+1/2}
-  double* pn = ws.p_next.data();                              // p^, then p~_{k+1}
-  double* fa = ws.applied.data();
-  double* fn = ws.force_next.data();
-  double* lam = ws.lambda.data();  // right-hand side, y, then lambda~
-  double* mu = ws.mu_values.data();
-  double* sc = ws.chain_sincos.data();
-
   ws.forget_one_forms();
   Forward fw(model, ws, st, h, t_next, kicked);
+  double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *mu = fw.mu, *sc = fw.sc;
   band.begin_rows();
   Group groups[2];        // groups b and b-1, by parity of b
   double vhat[2][3] = {};  // M^-1 p^ of bodies b and b-1, by parity
@@ -281,17 +275,9 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
 
-  double* qn = ws.q_next.data();
-  double* ph = kicked ? ws.p_half.data() : ws.p_next.data();
-  double* pn = ws.p_next.data();
-  double* fa = ws.applied.data();
-  double* fn = ws.force_next.data();
-  double* lam = ws.lambda.data();
-  double* mu = ws.mu_values.data();
-  double* sc = ws.chain_sincos.data();
-
   ws.forget_one_forms();
   Forward fw(model, ws, st, h, t_next, kicked);
+  double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *mu = fw.mu, *sc = fw.sc;
   band.begin_rows();
   double vhat[2][3] = {};
   double gap = 0.0;
@@ -436,14 +422,9 @@ Status sweep_knives(const Model& model, Workspace& ws, const State& st, const Ra
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
 
-  double* pn = ws.p_next.data();  // p_{k+1/2}, then p~_{k+1}
-  double* fa = ws.applied.data();
-  double* fn = ws.force_next.data();
-  double* lam = ws.lambda.data();
-  double* sc = ws.chain_sincos.data();
-
   ws.forget_one_forms();
   Forward fw(model, ws, st, h, t_next, false);
+  double *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *sc = fw.sc;
   band.begin_rows();
   BlockSum kinetic;
   double residual = 0.0;
