@@ -68,7 +68,12 @@ struct Forward {
         force(st.force.data()), qn(ws.q_next.data()), ph(was_kicked ? ws.p_half.data() : ws.p_next.data()),
         fa(ws.applied.data()), key(ws.one_form_key()), sc(ws.chain_sincos.data()), pn(ws.p_next.data()),
         fn(ws.force_next.data()), lam(ws.lambda.data()), mu(ws.mu_values.data()), h(step), t_next(t),
-        kicked(was_kicked), forced(model.has_applied_force()) {}
+        kicked(was_kicked), forced(model.has_applied_force()) {
+    // Every sweep starts so: the cached one-forms are about to be overwritten, and the band
+    // is refilled row by row.
+    ws.forget_one_forms();
+    ws.banded()->begin_rows();
+  }
 
   // The sweeps' common end: the pivot summary, the caches (mu written or left to
   // evaluate_one_forms), the diagnostics of the new state, the finiteness sum.
@@ -145,10 +150,8 @@ Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOpt
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
 
-  ws.forget_one_forms();
   Forward fw(model, ws, st, h, t_next, kicked);
   double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *mu = fw.mu, *sc = fw.sc;
-  band.begin_rows();
   Group groups[2];        // groups b and b-1, by parity of b
   double vhat[2][3] = {};  // M^-1 p^ of bodies b and b-1, by parity
   double gap = 0.0;
@@ -275,10 +278,8 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
 
-  ws.forget_one_forms();
   Forward fw(model, ws, st, h, t_next, kicked);
   double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *mu = fw.mu, *sc = fw.sc;
-  band.begin_rows();
   double vhat[2][3] = {};
   double gap = 0.0;
 
@@ -422,10 +423,8 @@ Status sweep_knives(const Model& model, Workspace& ws, const State& st, const Ra
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
 
-  ws.forget_one_forms();
   Forward fw(model, ws, st, h, t_next, false);
   double *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *sc = fw.sc;
-  band.begin_rows();
   BlockSum kinetic;
   double residual = 0.0;
   for (int i = 0; i <= n_bodies; ++i) {
