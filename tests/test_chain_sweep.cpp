@@ -8,6 +8,7 @@
 #include <nonholo/restart.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
+#include <nonholo/sparse/banded_ldlt.hpp>
 
 #include <gtest/gtest.h>
 
@@ -47,6 +48,51 @@ const std::vector<Case> kCases{
     {"sleigh_chain", {"bodies=40", "hitched=0", "k=2"}},  // C diagonal (kd = 0)
     {"wheeled_train", {"bodies=30"}},                     // thrust, generated parameters
 };
+
+// A chain's band is set up from its layout, without C's pattern, and factorize() writes its
+// rows from mu: the bandwidth is the pattern's, and the solves are CHOLMOD's (to round-off)
+// at a state far from the start, on the scenes and on a chain whose bodies have different
+// rows (no knife edge on body 1, no hitch from body 2: kd = 3).
+TEST(ChainSweep, ItsBandIsThePatternsAndSolvesAsCholmod) {
+  std::vector<scenarios::SceneSetup> setups;
+  for (const Case& c : kCases) setups.push_back(scene(c.scene, c.sets));
+  {
+    ModelBuilder b;
+    for (int i = 0; i < 4; ++i) {
+      const std::string s = std::to_string(i);
+      b.add_planar_body({"x" + s, "y" + s, "theta" + s}, 1.0 + 0.3 * i, 0.5 + 0.2 * i);
+    }
+    b.add_knife_edge({0, 0.2});
+    b.add_hitch({0, 1, 0.5, 0.4});
+    b.add_hitch({1, 2, 0.3, 0.6});
+    b.add_knife_edge({2, -0.1});
+    b.add_knife_edge({3, 0.3});
+    Vector q = Vector::Zero(12), v = Vector::Zero(12);
+    q << 0, 0, 0, -0.9, 0, 0, -1.8, 0, 0, -2.5, 0, 0;
+    v[0] = 1.0, v[2] = 0.3;
+    setups.push_back({b.build(), 0.0, q, v});
+  }
+  for (const auto& setup : setups) {
+    const Model& model = setup.model;
+    ASSERT_TRUE(model.is_chain());
+    Workspace fused(model), general(model, {Backend::CholmodNatural});
+    const int m = model.num_one_forms();
+    EXPECT_EQ(fused.banded()->bandwidth(), sparse::half_bandwidth(model.gram().pattern())) << m;
+    RattleOptions o;
+    o.hitch = HitchMode::OneForm;
+    State s = start_from_velocity(model, general, 0.0, setup.q0, setup.v0);
+    for (int k = 0; k < 50; ++k) ASSERT_EQ(step(model, general, s, o), Status::Ok) << general.message();
+    Vector rhs(m), a(m), b(m);
+    for (int r = 0; r < m; ++r) rhs[r] = std::cos(1.0 + 0.7 * r);
+    for (Workspace* ws : {&fused, &general}) {
+      ASSERT_EQ(ws->evaluate_one_forms(s.q), Status::Ok);
+      ASSERT_EQ(ws->factorize(1e-14), Status::Ok) << ws->message();
+    }
+    ASSERT_EQ(fused.solve(rhs.data(), a.data()), Status::Ok);
+    ASSERT_EQ(general.solve(rhs.data(), b.data()), Status::Ok);
+    EXPECT_LE(relative(a, b), 1e-12) << m;
+  }
+}
 
 // From the same state at many points of a trajectory, one fused step and one step of the
 // general path forced through CHOLMOD: the same q, p~, lambda~ and force to 1e-12 relative,

@@ -99,5 +99,30 @@ TEST(Dla, NewtonFailureLeavesTheStateUnchanged) {
   testing::expect_error([&] { validate(bad); }, "max_newton_iterations = 0 must be at least 1");
 }
 
+// A workspace made without room for the midpoint's second copy of mu (dla_steps = false, as
+// the CLI's reflection runs make it) refuses the midpoint step with a status and leaves the
+// state; the left-point step, which needs no copy, runs and agrees with a full workspace.
+TEST(Dla, LeanWorkspaceRefusesOnlyTheMidpointStep) {
+  const auto setup = scene("sleigh");
+  Workspace lean(setup.model, {sparse::Backend::Auto, false, false}), full(setup.model);
+  EXPECT_EQ(lean.scratch_nnz.size(), 0);
+  DlaOptions o;
+  o.h = 0.05;
+  DlaState s = dla_start(start_from_velocity(setup.model, lean, 0.0, setup.q0, setup.v0), o.h);
+  const DlaState before = s;
+  EXPECT_EQ(dla_step(setup.model, lean, s, o), Status::MethodNotApplicable);
+  EXPECT_THAT(lean.message(), ::testing::HasSubstr("WorkspaceOptions::dla_steps = true"));
+  EXPECT_EQ(s.q, before.q);
+  EXPECT_EQ(s.p, before.p);
+  o.constraint = DlaConstraint::Left;
+  DlaState t = s;
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_EQ(dla_step(setup.model, lean, s, o), Status::Ok) << lean.message();
+    ASSERT_EQ(dla_step(setup.model, full, t, o), Status::Ok) << full.message();
+  }
+  EXPECT_EQ(s.q, t.q);
+  EXPECT_EQ(s.p, t.p);
+}
+
 }  // namespace
 }  // namespace nonholo

@@ -166,5 +166,23 @@ TEST(ModelBuilder, ManyBodiesAndBothWaysToBuild) {
   testing::expect_error([&] { b.build(); }, "the model has no bodies");  // moved from: empty
 }
 
+// Names are found whichever way they are kept: numbered ("<prefix><n>", by number; pages far
+// apart; the empty prefix) or hashed (no trailing number, a leading zero, 9 digits; the table
+// grows). Names that differ only in those details are different names.
+TEST(ModelBuilder, EveryKindOfNameIsFoundAgain) {
+  ModelBuilder b;
+  const std::vector<std::string> kinds = {"x7", "x07", "x", "7", "07", "x99999999", "x123456789", "y7z", "x7 "};
+  for (std::size_t i = 0; i < kinds.size(); ++i) b.add_body({kinds[i]}, Eigen::Matrix<double, 1, 1>(1.0));
+  for (int i = 0; i < 3000; ++i) b.add_body({"w" + std::to_string(i) + "_"}, Eigen::Matrix<double, 1, 1>(1.0));
+  for (std::size_t i = 0; i < kinds.size(); ++i)
+    testing::expect_error([&] { b.add_body({"fresh", kinds[i]}, Eigen::Matrix2d::Identity()); },
+                          "coordinate name '" + kinds[i] + "' is used by body " + std::to_string(i) + " and");
+  testing::expect_error([&] { b.add_body({"w2999_"}, Eigen::Matrix<double, 1, 1>(1.0)); },
+                        "coordinate name 'w2999_' is used by body " + std::to_string(kinds.size() + 2999));
+  for (const char* fresh : {"x8", "x6", "x70", "x007", "8", "x99999998", "x1234567890", "y8z", "w3000_"})
+    b.add_body({fresh}, Eigen::Matrix<double, 1, 1>(1.0));
+  EXPECT_EQ(b.build().num_coordinates(), static_cast<int>(2 * kinds.size()) + 3000);
+}
+
 }  // namespace
 }  // namespace nonholo

@@ -302,3 +302,32 @@ TEST(Factorization, BackendNamesAndAutomaticChoice) {
 
 }  // namespace
 }  // namespace nonholo
+
+// A band set up without a pattern (a chain's, filled row by row by its owner) refuses the
+// pattern-based factorisations with a message, and a bandwidth beyond the banded path's limit.
+namespace nonholo::sparse {
+TEST(Factorization, ABandWithoutAPatternIsFilledByItsOwnerOnly) {
+  BandedLdlt band(6, 2);
+  EXPECT_EQ(band.bandwidth(), 2);
+  const std::vector<double> c(6, 1.0);
+  EXPECT_EQ(band.factorize(c.data(), 1e-12), FactorStatus::InvalidInput);
+  EXPECT_NE(std::string(band.message()).find("without a pattern"), std::string::npos) << band.message();
+  EXPECT_EQ(band.factorize_in_place(1e-12), FactorStatus::InvalidInput);
+  // Filled by rows: C = tridiagonal(-1, 4, -1) within the band, solved against the product.
+  band.begin_rows();
+  for (int r = 0; r < 6; ++r) {
+    double* a = band.row(r);
+    a[0] = 0.0, a[1] = r > 0 ? -1.0 : 0.0, a[2] = 4.0;
+    ASSERT_TRUE(band.eliminate_row(r, 1e-12));
+  }
+  ASSERT_EQ(band.finish_rows(1e-12), FactorStatus::Ok);
+  const double x[6] = {1, -2, 3, 0.5, -1, 2};
+  double b[6];
+  for (int r = 0; r < 6; ++r) b[r] = 4 * x[r] - (r > 0 ? x[r - 1] : 0) - (r < 5 ? x[r + 1] : 0);
+  double y[6];
+  ASSERT_EQ(band.solve(b, y), FactorStatus::Ok);
+  for (int r = 0; r < 6; ++r) EXPECT_NEAR(y[r], x[r], 1e-14);
+  EXPECT_THROW(BandedLdlt(6, kBandedMaxBandwidth + 1), std::invalid_argument);
+  EXPECT_THROW(BandedLdlt(-1, 2), std::invalid_argument);
+}
+}  // namespace nonholo::sparse

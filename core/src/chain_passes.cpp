@@ -21,6 +21,47 @@ void chain_one_forms_from_sincos(const Model& model, Workspace& ws) {
     at += group_rows(set.chain[b], sc + 2 * b, b + 1 < n_bodies ? sc + 2 * b + 2 : sc + 2 * b, g, mu + at);
 }
 
+namespace {
+
+template <int KD>
+sparse::FactorStatus factorize_rows(const ElementSet& set, sparse::BandedLdlt& band, const double* mu,
+                                    double min_pivot_ratio) {
+  const int n_bodies = static_cast<int>(set.chain.size());
+  const int kd = KD >= 0 ? KD : band.bandwidth();
+  Group groups[2];  // groups b and b-1, by parity of b
+  int first_of[2] = {0, 0};
+  int row = 0, value = 0;
+  band.begin_rows();
+  for (int b = 0; b < n_bodies; ++b) {
+    const ChainBody& cb = set.chain[b];
+    Group& g = groups[b & 1];
+    value += group_from_values(cb, mu + value, g);
+    const double* wn = b + 1 < n_bodies ? &set.chain[b + 1].wx : &cb.wx;  // wx, wy, wt are consecutive
+    for (int j = 0; j < g.rows; ++j) {
+      group_band_row(g, j, row, b > 0 ? &groups[(b + 1) & 1] : nullptr, first_of[(b + 1) & 1], &cb.wx, wn, kd,
+                     band.row(row + j));
+      if (!band.template eliminate_row<KD>(row + j, min_pivot_ratio)) return band.finish_rows(min_pivot_ratio);
+    }
+    first_of[b & 1] = row;
+    row += g.rows;
+  }
+  return band.finish_rows(min_pivot_ratio);
+}
+
+}  // namespace
+
+sparse::FactorStatus factorize_chain(const Model& model, Workspace& ws, double min_pivot_ratio) {
+  const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
+  const ElementSet& set = *model.element_set();
+  sparse::BandedLdlt& band = *ws.banded();
+  const double* mu = ws.mu_values.data();
+  switch (band.bandwidth()) {
+    case 0: return factorize_rows<0>(set, band, mu, min_pivot_ratio);
+    case 4: return factorize_rows<4>(set, band, mu, min_pivot_ratio);
+    default: return factorize_rows<-1>(set, band, mu, min_pivot_ratio);
+  }
+}
+
 void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef qdot, VecRef bias) {
   // Knife edge: w (c x' + s y'); hitch x: d c w^2 + f c' w'^2; hitch y: the same with sines.
   const ElementSet& set = *model.element_set();

@@ -46,6 +46,54 @@ inline int group_rows(const ChainBody& b, const double* sc, const double* sc_nex
   return k;
 }
 
+// The same group read back from mu's values of body b in pattern order (group_rows' layout):
+// how a factorisation outside the sweeps (factorize_chain) gets the rows of a mu it is given.
+inline int group_from_values(const ChainBody& b, const double* mu, Group& g) {
+  int r = 0, k = 0;
+  if (b.flags & kChainKnife) {
+    g.u[r][0] = mu[0], g.u[r][1] = mu[1], g.u[r][2] = mu[2];
+    g.v[r][0] = g.v[r][1] = g.v[r][2] = 0.0;
+    ++r;
+    k += 3;
+  }
+  if (b.flags & kChainHitch) {  // x row on (x_b, theta_b, x_{b+1}, theta_{b+1}), y row on the y's
+    const double* x = mu + k;
+    g.u[r][0] = x[0], g.u[r][1] = 0.0, g.u[r][2] = x[1];
+    g.v[r][0] = x[2], g.v[r][1] = 0.0, g.v[r][2] = x[3];
+    g.u[r + 1][0] = 0.0, g.u[r + 1][1] = x[4], g.u[r + 1][2] = x[5];
+    g.v[r + 1][0] = 0.0, g.v[r + 1][1] = x[6], g.v[r + 1][2] = x[7];
+    r += 2;
+    k += 8;
+  }
+  g.rows = r;
+  return k;
+}
+
+inline double dot3w(const double* a, const double* w, const double* b) {
+  return a[0] * w[0] * b[0] + a[1] * w[1] * b[1] + a[2] * w[2] * b[2];
+}
+inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+// Band row `a` (kd + 1 entries, the diagonal last) of C = mu M^-1 mu^T for row j of group g,
+// whose rows start at `first`: entries with the group's own rows (on body b, weights w, and on
+// body b+1, weights wn) and with the rows of the group before it (from prev_first; only its v
+// part, on body b, meets g: `prev` null for the first group). Every entry, zeros included.
+inline void group_band_row(const Group& g, int j, int first, const Group* prev, int prev_first, const double* w,
+                           const double* wn, int kd, double* a) {
+  const int r = first + j;
+  const double uw[3] = {g.u[j][0] * w[0], g.u[j][1] * w[1], g.u[j][2] * w[2]};
+  for (int t = 0; t < kd; ++t) {
+    const int s = r - kd + t;
+    double value = 0.0;
+    if (s >= first)
+      value = dot3(uw, g.u[s - first]) + dot3w(g.v[j], wn, g.v[s - first]);
+    else if (prev && s >= prev_first)
+      value = dot3(uw, prev->v[s - prev_first]);
+    a[t] = value;
+  }
+  a[kd] = dot3(uw, g.u[j]) + dot3w(g.v[j], wn, g.v[j]);
+}
+
 // sin and cos of one angle in one call (glibc's sincos: about half the cost of both).
 inline void sin_cos(double x, double* out) {
 #if defined(__GLIBC__)

@@ -132,11 +132,6 @@ struct Forward {
   }
 };
 
-inline double dot3w(const double* a, const double* w, const double* b) {
-  return a[0] * w[0] * b[0] + a[1] * w[1] * b[1] + a[2] * w[2] * b[2];
-}
-inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-
 // KD: the band's half-bandwidth when known at compile time (the loops unroll), else -1.
 template <int KD>
 Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h, double t_next,
@@ -184,20 +179,9 @@ Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOpt
       row_of_group[b & 1] = first;
       const double* wn = b + 1 < n_bodies ? &body[b + 1].wx : w;  // wx, wy, wt are consecutive
       for (int j = 0; j < g.rows; ++j) {
-        const int r = first + j;
-        double* a = band.row(r);
-        const double uw[3] = {g.u[j][0] * w[0], g.u[j][1] * w[1], g.u[j][2] * w[2]};
-        for (int t = 0; t < kd; ++t) {
-          const int s = r - kd + t;
-          double value = 0.0;
-          if (s >= first)
-            value = dot3(uw, g.u[s - first]) + dot3w(g.v[j], wn, g.v[s - first]);
-          else if (s >= prev_first && b > 0)
-            value = dot3(uw, prev.v[s - prev_first]);
-          a[t] = value;
-        }
-        a[kd] = dot3(uw, g.u[j]) + dot3w(g.v[j], wn, g.v[j]);
-        if (!band.template eliminate_row<KD>(r, o.min_pivot_ratio)) return pivot_failure(ws, band, o.min_pivot_ratio);
+        group_band_row(g, j, first, b > 0 ? &prev : nullptr, prev_first, w, wn, kd, band.row(first + j));
+        if (!band.template eliminate_row<KD>(first + j, o.min_pivot_ratio))
+          return pivot_failure(ws, band, o.min_pivot_ratio);
       }
       next_row += g.rows;
     }

@@ -51,6 +51,10 @@ void chain_one_forms_from_sincos(const Model& model, Workspace& ws);
 // The bias (d/dt mu) qdot at the q of ws.chain_sincos (Workspace::sincos_hold).
 void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef qdot, VecRef bias);
 
+// C(q) = mu M^-1 mu^T factorised into ws.banded() from mu(q) in ws.mu_values, row by row
+// from the elements' layout (Workspace::factorize for a chain: no Gram index map).
+sparse::FactorStatus factorize_chain(const Model& model, Workspace& ws, double min_pivot_ratio);
+
 double chain_gap_rhs(const Model& model, Workspace& ws, double scale);
 void chain_gap_correction(const Model& model, Workspace& ws, const double* dlambda, double h);
 

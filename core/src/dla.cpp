@@ -40,6 +40,10 @@ Status dla_step_unguarded(const Model& model, Workspace& ws, DlaState& s, const 
                    static_cast<long>(s.q.size()), static_cast<long>(s.p.size()), n);
   if (model.has_configuration_metric())
     return ws.fail(Status::MethodNotApplicable, "the DLA baseline here needs a constant metric");
+  if (o.constraint == DlaConstraint::Midpoint && ws.scratch_nnz.size() != model.num_one_form_values())
+    return ws.fail(Status::MethodNotApplicable,
+                   "the midpoint DLA step needs a second copy of mu: make the workspace with "
+                   "WorkspaceOptions::dla_steps = true");
   const double h = o.h;
   const auto& minv = model.inverse_mass();
 

@@ -40,6 +40,10 @@ struct ElementSet {
   // by body as [knife edge of b][hitch b -> b+1 (x, y)] with springs only between
   // neighbours: then chain.size() == number of bodies. Empty otherwise.
   std::vector<ChainBody> chain;
+  // The half-bandwidth of C in the chain's row order (4 with knife edges and hitches, 0 with
+  // knife edges only), from the layout alone: the banded factor of a chain is set up without
+  // C's pattern (Model::gram is not built for it).
+  int chain_bandwidth = 0;
   // The common chain: every body has a knife edge and a hitch to the next, the last only its
   // knife edge (rows 3b, 3b+1, 3b+2 of body b; kd = 4): the sweep has closed forms for it.
   bool hitched_chain = false;

@@ -1,8 +1,27 @@
 #include <nonholo/model.hpp>
 
+#include <mutex>
+
 #include "element_set.hpp"
 
 namespace nonholo {
+
+struct Model::LazyGram {
+  std::once_flag once;
+  sparse::GramAssembler gram;
+};
+
+const sparse::GramAssembler& Model::gram() const {
+  static const sparse::GramAssembler none;  // a Model() that ModelBuilder never finished
+  if (!gram_) return none;
+  std::call_once(gram_->once, [this] { gram_->gram = sparse::GramAssembler(pattern_, inverse_mass_); });
+  return gram_->gram;
+}
+
+void Model::new_gram() {
+  gram_ = std::make_shared<LazyGram>();  // its own: a builder's copies share no draft's
+  if (!is_chain()) gram();
+}
 
 const std::string& Model::row_label(int r) const {
   static const std::string none;

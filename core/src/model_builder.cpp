@@ -114,9 +114,29 @@ void ModelBuilder::check_names(int index, const std::string* names, int k) const
 // per lookup instead of two.
 namespace {
 std::uint64_t name_hash(const std::string& name) { return std::hash<std::string_view>{}(name); }
+
+// n of a name "<prefix><n>" (and the prefix's length), or -1 for a name kept in the hash table.
+int name_number(const std::string& name, std::size_t& prefix) {
+  std::size_t start = name.size();
+  while (start > 0 && name[start - 1] >= '0' && name[start - 1] <= '9') --start;
+  const std::size_t digits = name.size() - start;
+  if (digits == 0 || digits > 8 || (digits > 1 && name[start] == '0')) return -1;
+  int n = 0;
+  for (std::size_t i = start; i < name.size(); ++i) n = 10 * n + (name[i] - '0');
+  prefix = start;
+  return n;
+}
 }  // namespace
 
 int ModelBuilder::find_name(const std::string& name) const {
+  std::size_t prefix = 0;
+  if (const int n = name_number(name, prefix); n >= 0) {
+    const auto it = numbered_of_.find(name.substr(0, prefix));
+    if (it == numbered_of_.end()) return -1;
+    const auto& pages = numbered_[static_cast<std::size_t>(it->second)].pages;
+    const std::size_t page = static_cast<std::size_t>(n / kNamePage);
+    return page < pages.size() && !pages[page].empty() ? pages[page][n % kNamePage] : -1;
+  }
   if (name_slots_.empty()) return -1;
   const std::uint64_t hash = name_hash(name), tag = hash >> 32;
   const std::size_t mask = name_slots_.size() - 1;
@@ -129,7 +149,19 @@ int ModelBuilder::find_name(const std::string& name) const {
 }
 
 void ModelBuilder::insert_name(int coordinate) {
-  if (2 * (static_cast<std::size_t>(coordinate) + 1) > name_slots_.size()) {  // keep it at most half full
+  const std::string& name = draft_.names_[static_cast<std::size_t>(coordinate)];
+  std::size_t prefix = 0;
+  if (const int n = name_number(name, prefix); n >= 0) {
+    const auto added = numbered_of_.try_emplace(name.substr(0, prefix), static_cast<int>(numbered_.size()));
+    if (added.second) numbered_.emplace_back();
+    auto& pages = numbered_[static_cast<std::size_t>(added.first->second)].pages;
+    const std::size_t page = static_cast<std::size_t>(n / kNamePage);
+    if (page >= pages.size()) pages.resize(page + 1);
+    if (pages[page].empty()) pages[page].assign(kNamePage, -1);
+    pages[page][n % kNamePage] = coordinate;
+    return;
+  }
+  if (2 * (hashed_names_ + 1) > name_slots_.size()) {  // keep it at most half full
     std::vector<std::uint64_t> old(std::max<std::size_t>(64, 2 * name_slots_.size()), 0);
     old.swap(name_slots_);
     const std::size_t mask = name_slots_.size() - 1;
@@ -141,7 +173,8 @@ void ModelBuilder::insert_name(int coordinate) {
       name_slots_[at] = slot;
     }
   }
-  const std::uint64_t hash = name_hash(draft_.names_[static_cast<std::size_t>(coordinate)]);
+  ++hashed_names_;
+  const std::uint64_t hash = name_hash(name);
   const std::size_t mask = name_slots_.size() - 1;
   std::size_t at = hash & mask;
   while (name_slots_[at] != 0) at = (at + 1) & mask;
@@ -190,9 +223,6 @@ void ModelBuilder::reserve(int bodies, int coordinates, int rows, int values) {
   draft_.mass_.reserve(coordinates);
   row_ptr_.reserve(static_cast<std::size_t>(rows) + 1);
   row_cols_.reserve(static_cast<std::size_t>(values));
-  std::size_t slots = 64;
-  while (slots < 2 * static_cast<std::size_t>(coordinates)) slots *= 2;
-  if (slots > name_slots_.size() && draft_.names_.empty()) name_slots_.assign(slots, 0);
 }
 
 int ModelBuilder::add_row(const int* columns, int count, std::string label) {
@@ -356,6 +386,16 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
     if (!chain) set->chain.clear();
     set->knife_chain = chain;
     for (int b = 0; set->knife_chain && b < bodies; ++b) set->knife_chain = set->chain[b].flags == detail::kChainKnife;
+    // Group b's rows all touch body b, and so does group b-1's hitch (its front): C couples
+    // the two, and group b's last row reaches back to the first hitch row of group b-1.
+    for (int b = 0, first = 0, hitch_before = -1; chain && b < bodies; ++b) {
+      const int flags = set->chain[b].flags;
+      const int count = ((flags & detail::kChainKnife) ? 1 : 0) + ((flags & detail::kChainHitch) ? 2 : 0);
+      const int last = first + count - 1;
+      if (count > 0) set->chain_bandwidth = std::max(set->chain_bandwidth, last - (hitch_before >= 0 ? hitch_before : first));
+      hitch_before = (flags & detail::kChainHitch) ? last - 1 : -1;
+      first += count;
+    }
     set->hitched_chain = chain && bodies >= 2;
     for (int b = 0; set->hitched_chain && b < bodies; ++b)
       set->hitched_chain = set->chain[b].flags == (b + 1 < bodies ? detail::kChainKnife | detail::kChainHitch
@@ -478,7 +518,7 @@ Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elem
          " holonomic rows but no gap function (call gap)");
   if (model.holonomic_rows_.empty() && model.gap_)
     fail("a gap function was given but no holonomic rows (add them with add_holonomic_row)");
-  model.gram_ = sparse::GramAssembler(model.pattern_, model.inverse_mass_);
+  model.new_gram();
   return model;
 }
 

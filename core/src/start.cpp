@@ -69,7 +69,10 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
   auto complain = [](const std::string& what) { throw std::invalid_argument("start: " + what); };
   Vector local, local2;
   if (model.num_one_forms() > 0) {
-    Vector& mu = sized_buffer(ws.scratch_nnz, local, model.num_one_form_values());
+    // Into the one-form cache itself (forgotten, so the start evaluates mu again): no second
+    // copy of mu is needed (WorkspaceOptions::dla_steps).
+    ws.forget_one_forms();
+    Vector& mu = ws.mu_values;
     mu.setConstant(nan);
     model.one_form_values(q0, mu);
     const auto& pattern = model.one_form_pattern();

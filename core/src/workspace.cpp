@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "chain_sweep.hpp"
+#include "element_set.hpp"
 
 namespace nonholo {
 
@@ -15,9 +16,10 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
                     &scratch_n, &scratch_n2, &mu_q_})
     v->setZero(n);
   mu_values.setZero(model.num_one_form_values());
-  scratch_nnz.setZero(model.num_one_form_values());
-  // The bias by central differences needs a second copy of mu (dynamics.cpp); a model with its
-  // own bias (every element model) does not: 88 MB less for a million-body chain.
+  // The bias by central differences needs two more copies of mu (dynamics.cpp), the midpoint
+  // DLA one; a model with its own bias (every element model) stepped by reflections none:
+  // 176 MB less for a million-body chain.
+  if (!model.has_analytic_bias() || options.dla_steps) scratch_nnz.setZero(model.num_one_form_values());
   if (!model.has_analytic_bias()) scratch_nnz2.setZero(model.num_one_form_values());
   rhs.setZero(m);
   lambda.setZero(m);
@@ -42,7 +44,12 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   }
   sparse::Backend backend = options.backend;
   if (backend == sparse::Backend::Auto && model.is_chain()) backend = sparse::Backend::Banded;
-  if (m > 0) factor_ = sparse::make_factorization(backend, model.gram().pattern());
+  // A chain's band is set up from its layout: its C's pattern and index map (Model::gram)
+  // are not built unless another backend is forced.
+  if (m > 0 && model.is_chain() && backend == sparse::Backend::Banded)
+    factor_ = std::make_unique<sparse::BandedLdlt>(m, model.element_set()->chain_bandwidth);
+  else if (m > 0)
+    factor_ = sparse::make_factorization(backend, model.gram().pattern());
   if (factor_ && factor_->backend() == sparse::Backend::Banded) banded_ = static_cast<sparse::BandedLdlt*>(factor_.get());
   if (fused()) chain_sincos.setZero(2 * model.num_bodies());
   // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
@@ -116,7 +123,9 @@ Status Workspace::factorize(double min_pivot_ratio) {
   factor_valid_ = false;
   ++factorizations;
   FactorStatus s;
-  if (double* in_place = factor_->values_in_place()) {  // CHOLMOD: assemble into its own matrix
+  if (fused()) {  // a chain: its rows straight into the band (chain_passes.cpp)
+    s = detail::factorize_chain(*model_, *this, min_pivot_ratio);
+  } else if (double* in_place = factor_->values_in_place()) {  // CHOLMOD: assemble into its own matrix
     model_->gram().assemble(mu_values.data(), in_place, factor_->slot_positions());
     s = factor_->factorize_in_place(min_pivot_ratio);
   } else {

@@ -19,7 +19,7 @@ void announce(const SetupPhase& phase, const char* what) {
 class ReflectionRunner final : public Runner {
  public:
   ReflectionRunner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase)
-      : model_(setup.model), ws_(setup.model, {c.backend, c.rattle.order > 2}), options_(c.rattle) {
+      : model_(setup.model), ws_(setup.model, {c.backend, c.rattle.order > 2, false}), options_(c.rattle) {
     announce(phase, "starting");
     state_ = start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0);
   }

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace nonholo::sparse {
 
@@ -38,7 +40,17 @@ BandedLdlt::BandedLdlt(const SymmetricPattern& pattern)
       if (!inside[static_cast<std::size_t>(r) * (kd_ + 1) + t]) outside_.push_back(r * (kd_ + 1) + t);
 }
 
+BandedLdlt::BandedLdlt(int size, int kd) : Factorization(size), kd_(kd) {
+  if (size < 0 || kd < 0 || kd > kBandedMaxBandwidth)
+    throw std::invalid_argument("BandedLdlt: size " + std::to_string(size) + " and half-bandwidth " +
+                                std::to_string(kd) + " (at most " + std::to_string(kBandedMaxBandwidth) + ")");
+  band_.assign(static_cast<std::size_t>(size) * (kd_ + 1), 0.0);
+  work_.assign(kd_ + 1, 0.0);
+  has_pattern_ = false;
+}
+
 FactorStatus BandedLdlt::factorize_in_place(double min_pivot_ratio) {
+  if (!has_pattern_) return no_pattern();
   for (int at : outside_) band_[static_cast<std::size_t>(at)] = 0.0;  // L's fill from the last time
   begin_rows();
   for (int r = 0; r < size(); ++r)
@@ -77,7 +89,12 @@ FactorStatus BandedLdlt::finish_rows(double min_pivot_ratio) {
               r, ratio, min_pivot_ratio);
 }
 
+FactorStatus BandedLdlt::no_pattern() {
+  return fail(FactorStatus::InvalidInput, "this band was set up without a pattern: its owner fills its rows");
+}
+
 FactorStatus BandedLdlt::factorize(const double* c_values, double min_pivot_ratio) {
+  if (!has_pattern_) return no_pattern();
   // Entries of the band outside the pattern (fill) must start at zero.
   std::fill(band_.begin(), band_.end(), 0.0);
   for (std::size_t s = 0; s < position_.size(); ++s) band_[position_[s]] = c_values[s];

@@ -20,6 +20,11 @@ struct WorkspaceOptions {
   // one of its substeps: four more state-sized vectors. Turn off for order-2-only use of a
   // very large model; a composed step on such a workspace fails with MethodNotApplicable.
   bool composed_steps = true;
+  // A second copy of mu for the midpoint DLA baseline (nonholo/dla.hpp): nnz(mu) values,
+  // 88 MB for a million-body chain. Turn off when only reflection steps run; DLA midpoint
+  // steps on such a workspace fail with MethodNotApplicable. (A model without its own bias
+  // gets the copy anyway: its bias by differences needs it.)
+  bool dla_steps = true;
 };
 
 // Cache-line aligned (and so padded): the workspaces of a batch's threads are written at every

@@ -22,6 +22,10 @@ bool band_is_compact(const SymmetricPattern& pattern);
 class BandedLdlt final : public Factorization {
  public:
   explicit BandedLdlt(const SymmetricPattern& pattern);
+  // A band of this size and half-bandwidth whose owner fills every row itself (row(),
+  // eliminate_row(): a chain of elements writes its rows in closed form), with no pattern:
+  // factorize() and factorize_in_place() then report InvalidInput.
+  BandedLdlt(int size, int kd);
 
   FactorStatus factorize(const double* c_values, double min_pivot_ratio) override;
   // C's values written straight into the band (GramAssembler::assemble with slot_positions()):
@@ -156,7 +160,9 @@ class BandedLdlt final : public Factorization {
   }
   template <int KD>
   void solve_fixed(double* x);
+  FactorStatus no_pattern();
   int kd_;
+  bool has_pattern_ = true;
   std::vector<double> band_;
   std::vector<int> position_;  // slot of C's pattern -> index in band_
   std::vector<int> outside_;   // band entries outside the pattern (zeroed before each factorisation)
