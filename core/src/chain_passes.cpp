@@ -82,57 +82,115 @@ void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef
   }
 }
 
-double chain_gap_rhs(const Model& model, Workspace& ws, double scale) {
+// The common chain's rows: body b has rows 3b (knife edge), 3b+1, 3b+2 (hitch b -> b+1; the
+// last body only its knife edge). Their band entries before column LO = 2, 1, 0 and their
+// column's entries below row r + HI = 2, 4, 3 are structural zeros (chain_sweep.cpp's
+// sweep_hitched): the substitutions skip them, with constant loop bounds inside the band.
+namespace {
+
+template <int LO>
+inline void forward_hitched(sparse::BandedLdlt& band, int r, double* y) {
+  if (r >= 4)
+    band.forward_interior_row<4, LO>(r, y);
+  else
+    band.forward_row<4>(r, y);
+}
+
+template <int HI>
+inline void backward_hitched(sparse::BandedLdlt& band, int r, int m, double* x) {
+  if (r + 4 < m)
+    band.backward_interior_row<4, HI>(r, x);
+  else
+    band.backward_row<4>(r, x);
+}
+
+// The hitch of body b at q (sin/cos of b and b+1 in sc): its gap (x, y).
+inline void hitch_gap(const ChainBody& cb, const double* a, const double* sc, double& gx, double& gy) {
+  gx = a[0] - cb.d * sc[1] - a[3] - cb.f * sc[3];
+  gy = a[1] - cb.d * sc[0] - a[4] - cb.f * sc[2];
+}
+
+inline void track_worst(double gx, double gy, double& worst) {
+  worst = std::max(worst, std::max(std::abs(gx), std::abs(gy)));
+  if (!(gx == gx && gy == gy)) worst = gx + gy;  // NaN wins
+}
+
+}  // namespace
+
+double chain_gap_forward(const Model& model, Workspace& ws, double scale, double* y, double& size) {
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   const ElementSet& set = *model.element_set();
   const ChainBody* body = set.chain.data();
   const int n_bodies = static_cast<int>(set.chain.size());
   const double* qn = ws.q_next.data();
+  sparse::BandedLdlt& band = *ws.banded();
   ws.forget_sincos();  // they are q_{k+1}'s from here on
   double* sc = ws.chain_sincos.data();
-  double* rhs = ws.rhs.data();
-  double worst = 0.0;
+  double worst = 0.0, largest = 0.0;
   sin_cos(qn[2], sc);
   for (int b = 0; b + 1 < n_bodies; ++b) {
-    const double* a = qn + 3 * b;
-    sin_cos(a[5], sc + 2 * b + 2);
-    const ChainBody& cb = body[b];
-    const double gx = a[0] - cb.d * sc[2 * b + 1] - a[3] - cb.f * sc[2 * b + 3];
-    const double gy = a[1] - cb.d * sc[2 * b] - a[4] - cb.f * sc[2 * b + 2];
-    worst = std::max(worst, std::max(std::abs(gx), std::abs(gy)));
-    if (!(gx == gx && gy == gy)) worst = gx + gy;  // NaN wins
-    rhs[3 * b] = 0.0;
-    rhs[3 * b + 1] = scale * gx;
-    rhs[3 * b + 2] = scale * gy;
+    sin_cos(qn[3 * b + 5], sc + 2 * b + 2);
+    largest = std::max({largest, std::abs(qn[3 * b]), std::abs(qn[3 * b + 1]), std::abs(qn[3 * b + 2])});
+    double gx, gy;
+    hitch_gap(body[b], qn + 3 * b, sc + 2 * b, gx, gy);
+    track_worst(gx, gy, worst);
+    const int r = 3 * b;
+    y[r] = 0.0;
+    y[r + 1] = scale * gx;
+    y[r + 2] = scale * gy;
+    forward_hitched<2>(band, r, y);
+    forward_hitched<1>(band, r + 1, y);
+    forward_hitched<0>(band, r + 2, y);
   }
-  rhs[3 * (n_bodies - 1)] = 0.0;
+  const int last = 3 * (n_bodies - 1);
+  y[last] = 0.0;
+  forward_hitched<2>(band, last, y);
+  size = std::max({largest, std::abs(qn[last]), std::abs(qn[last + 1]), std::abs(qn[last + 2])});
   return worst;
 }
 
-void chain_gap_correction(const Model& model, Workspace& ws, const double* dl, double h) {
+void chain_forward_substitute(Workspace& ws, double* y) {
+  sparse::BandedLdlt& band = *ws.banded();
+  const int m = band.size();
+  for (int r = 0; r < m; r += 3) {
+    forward_hitched<2>(band, r, y);
+    if (r + 1 < m) {
+      forward_hitched<1>(band, r + 1, y);
+      forward_hitched<0>(band, r + 2, y);
+    }
+  }
+}
+
+double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale, bool first) {
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   const ElementSet& set = *model.element_set();
   const ChainBody* body = set.chain.data();
   const int n_bodies = static_cast<int>(set.chain.size());
+  sparse::BandedLdlt& band = *ws.banded();
+  const int m = band.size();
   const double* mu = ws.mu_values.data();
   double* ph = ws.p_half.data();
   double* qn = ws.q_next.data();
+  double* sc = ws.chain_sincos.data();
+  double* gm = ws.gap_multiplier.data();
   const double half = 0.5 * h, drift = 0.5 * h * h;
-  for (int b = 0; b < n_bodies; ++b) {
-    // mu^T dlambda on body b: its knife edge [s, -c, a] and hitch rows [1, d s | ...],
-    // [1, -d c | ...] (values 11 b ...), the previous hitch's [... | -1, f s] and [... | -1, -f c].
-    const double* m = mu + 11 * b;
-    const double lk = dl[3 * b];
-    double g[3] = {m[0] * lk, m[1] * lk, m[2] * lk};
+  auto solved = [&](int r) { gm[r] = first ? x[r] : gm[r] + x[r]; };
+  // p_half += (h/2) mu_k^T dlambda and q_next += (h^2/2) M^-1 mu_k^T dlambda on body b, from
+  // its knife edge [s, -c, a] and hitch rows [1, d s | ...], [1, -d c | ...] (values 11 b ...)
+  // and the previous hitch's [... | -1, f s], [... | -1, -f c].
+  auto correct = [&](int b) {
+    const double* mb = mu + 11 * b;
+    const double lk = x[3 * b];
+    double g[3] = {mb[0] * lk, mb[1] * lk, mb[2] * lk};
     if (b + 1 < n_bodies) {
-      const double lx = dl[3 * b + 1], ly = dl[3 * b + 2];
-      g[0] += m[3] * lx;
-      g[1] += m[7] * ly;
-      g[2] += m[4] * lx + m[8] * ly;
+      const double lx = x[3 * b + 1], ly = x[3 * b + 2];
+      g[0] += mb[3] * lx;
+      g[1] += mb[7] * ly;
+      g[2] += mb[4] * lx + mb[8] * ly;
     }
     if (b > 0) {
       const double* mp = mu + 11 * (b - 1);
-      const double px = dl[3 * b - 2], py = dl[3 * b - 1];
+      const double px = x[3 * b - 2], py = x[3 * b - 1];
       g[0] += mp[5] * px;
       g[1] += mp[9] * py;
       g[2] += mp[6] * px + mp[10] * py;
@@ -142,7 +200,36 @@ void chain_gap_correction(const Model& model, Workspace& ws, const double* dl, d
       ph[3 * b + c] += half * g[c];
       qn[3 * b + c] += drift * (&cb.wx)[c] * g[c];
     }
+  };
+  double worst = 0.0;
+  backward_hitched<2>(band, m - 1, m, x);  // the last body's knife edge
+  solved(m - 1);
+  for (int b = n_bodies - 2; b >= -1; --b) {
+    if (b >= 0) {  // group b: dlambda of its rows
+      const int r = 3 * b;
+      backward_hitched<3>(band, r + 2, m, x);
+      backward_hitched<4>(band, r + 1, m, x);
+      backward_hitched<2>(band, r, m, x);
+      solved(r + 2);
+      solved(r + 1);
+      solved(r);
+    }
+    // Body c = b+1 has all its multipliers (groups c and b): corrected, then the hitch from it
+    // (to c+1, corrected before) gives the next right-hand side in place of group c's
+    // dlambda, which no substitution reads any more.
+    const int c = b + 1;
+    correct(c);
+    sin_cos(qn[3 * c + 2], sc + 2 * c);
+    x[3 * c] = 0.0;
+    if (c + 1 < n_bodies) {
+      double gx, gy;
+      hitch_gap(body[c], qn + 3 * c, sc + 2 * c, gx, gy);
+      track_worst(gx, gy, worst);
+      x[3 * c + 1] = scale * gx;
+      x[3 * c + 2] = scale * gy;
+    }
   }
+  return worst;
 }
 
 }  // namespace nonholo::detail

@@ -39,11 +39,6 @@ class FlushSubnormals {
 };
 inline constexpr int kFlushSubnormalsFrom = 16;  // bodies
 
-// Holonomic mode on the common chain (ElementSet::hitched_chain), one pass each:
-// chain_gap_rhs puts sin/cos of ws.q_next in ws.chain_sincos and scale * g in ws.rhs (hitch
-// rows; 0 on the knife rows) and returns max |g|; chain_gap_correction applies
-// p_half += (h/2) mu_k^T dlambda and q_next += (h^2/2) M^-1 mu_k^T dlambda with mu_k in
-// ws.mu_values.
 // mu(q) in ws.mu_values from ws.chain_sincos, for the q of the last fused step (which wrote
 // mu itself only in holonomic mode, where the next step's corrections need it).
 void chain_one_forms_from_sincos(const Model& model, Workspace& ws);
@@ -55,8 +50,27 @@ void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef
 // from the elements' layout (Workspace::factorize for a chain: no Gram index map).
 sparse::FactorStatus factorize_chain(const Model& model, Workspace& ws, double min_pivot_ratio);
 
-double chain_gap_rhs(const Model& model, Workspace& ws, double scale);
-void chain_gap_correction(const Model& model, Workspace& ws, const double* dlambda, double h);
+// Holonomic mode on the common chain (ElementSet::hitched_chain): the position iteration's
+// corrections C(q_k) dlambda = scale [g(q_{k+1}); 0] in two passes each, with C(q_k)
+// factorised in ws.banded() and mu(q_k) in ws.mu_values.
+// chain_gap_forward: sin/cos of ws.q_next into ws.chain_sincos, the right-hand side (0 on the
+// knife rows) forward-substituted into y, max |q_next| into size; returns max |g| (NaN when a
+// gap is).
+double chain_gap_forward(const Model& model, Workspace& ws, double scale, double* y, double& size);
+// The forward substitution alone, of a right-hand side chain_correct_backward left in y.
+void chain_forward_substitute(Workspace& ws, double* y);
+// Back substitution of x into dlambda (added to ws.gap_multiplier; assigned when `first`),
+// p_half += (h/2) mu^T dlambda and q_next += (h^2/2) M^-1 mu^T dlambda body by body, then
+// sin/cos and the gaps of the corrected q_next: the next right-hand side is left in x (not
+// forward-substituted); returns its max |g|.
+double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale, bool first);
+
+// The period-2 mode's measurement at the state the last fused step produced (ws.chain_sincos
+// and C factorised are of its q; p and lambda its p~ and lambda~): lambda_s into ws.lambda_s,
+// M^-1 p into ws.velocity and the amplitude, as restart.cpp's continuous_multiplier_at and
+// parasitic_of give them, in two passes (chain_measure.cpp).
+Status chain_measure(const Model& model, Workspace& ws, const double* p, const double* lambda, double h,
+                     bool gap_offset, double& amplitude);
 
 // From the state at t_k to ws.q_next, p_next, lambda, force_next (and ws.applied, the applied
 // force at t_{k+1}) as detail::advance computes them; C(q_{k+1}) factorised and mu(q_{k+1})

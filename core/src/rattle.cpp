@@ -106,9 +106,17 @@ Status gap_failure(const Model& model, Workspace& ws, const State& s, const Ratt
 Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const RattleOptions& o, double h) {
   Status status = ws.factorize_at(s.q, o.min_pivot_ratio);
   if (status != Status::Ok) return status;
-  const auto& rows = model.holonomic_rows();
-  const int count = model.num_holonomic();
-  const double size = ws.q_next.lpNorm<Eigen::Infinity>();
+  // A chain of knife edges and hitches: two passes over the bodies per correction
+  // (chain_passes.cpp), forward (gaps and forward substitution) and backward (back
+  // substitution, correction, the next gaps); the last leaves sin/cos of q_{k+1} for the sweep.
+  const bool chain = ws.fused() && model.element_set()->hitched_chain;
+  const double scale = -2.0 / (h * h);
+  double* x = ws.scratch_m.data();
+  double size = 0.0, worst = 0.0;
+  if (chain)
+    worst = detail::chain_gap_forward(model, ws, scale, x, size);
+  else
+    size = ws.q_next.lpNorm<Eigen::Infinity>();
   const double floor = 16.0 * std::numeric_limits<double>::epsilon() * size;
   if (floor > o.gap_tolerance_limit)
     return ws.fail(Status::GapNotConverged,
@@ -117,18 +125,25 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
                    "larger length units, or reduce the step size if the motion ran away",
                    size, s.t, floor, o.gap_tolerance_limit);
   const double tolerance = std::max(o.gap_tolerance, floor);
-  ws.gap_multiplier.setZero();
-  // A chain of knife edges and hitches: each gap pass and correction in one pass over the
-  // bodies (chain_sweep.cpp); the last gap pass leaves sin/cos of q_{k+1} for the sweep.
-  const bool chain = ws.fused() && model.element_set()->hitched_chain;
-  for (int it = 0;; ++it) {
-    double worst;
-    if (chain) {
-      worst = detail::chain_gap_rhs(model, ws, -2.0 / (h * h));
-    } else {
-      model.gap(ws.q_next, ws.gap);
-      worst = ws.gap.lpNorm<Eigen::Infinity>();
+  if (chain) {
+    for (int it = 0;; ++it) {
+      if (!std::isfinite(worst))
+        return ws.fail(Status::NonFiniteState, "hitch gap is %g after %d corrections", worst, it);
+      if (worst <= tolerance) {
+        ws.gap_iterations = it;
+        return Status::Ok;
+      }
+      if (it == o.max_gap_iterations) return gap_failure(model, ws, s, o, h, worst, it, tolerance);
+      if (it > 0) detail::chain_forward_substitute(ws, x);
+      worst = detail::chain_correct_backward(model, ws, x, h, scale, it == 0);
     }
+  }
+  const auto& rows = model.holonomic_rows();
+  const int count = model.num_holonomic();
+  ws.gap_multiplier.setZero();
+  for (int it = 0;; ++it) {
+    model.gap(ws.q_next, ws.gap);
+    worst = ws.gap.lpNorm<Eigen::Infinity>();
     if (!std::isfinite(worst))
       return ws.fail(Status::NonFiniteState, "hitch gap is %g after %d corrections", worst, it);
     if (worst <= tolerance) {
@@ -136,16 +151,10 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
       return Status::Ok;
     }
     if (it == o.max_gap_iterations) return gap_failure(model, ws, s, o, h, worst, it, tolerance);
-    if (!chain) {
-      ws.rhs.setZero();
-      for (int j = 0; j < count; ++j) ws.rhs[rows[j]] = (-2.0 / (h * h)) * ws.gap[j];
-    }
+    ws.rhs.setZero();
+    for (int j = 0; j < count; ++j) ws.rhs[rows[j]] = scale * ws.gap[j];
     if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
     ws.gap_multiplier += ws.scratch_m;
-    if (chain) {
-      detail::chain_gap_correction(model, ws, ws.scratch_m.data(), h);
-      continue;
-    }
     model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
     ws.p_half += (0.5 * h) * ws.scratch_n;
     model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
@@ -153,10 +162,10 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
   }
 }
 
-// p_half = p~_k + (h/2) force, velocity = M^-1 p_half, q_next = q_k + h velocity: one pass
-// when M is diagonal.
+// p_half = p~_k + (h/2) force, velocity = M^-1 p_half (unless not `with_velocity`), q_next =
+// q_k + h velocity: one pass when M is diagonal.
 void kick_drift(const sparse::BlockDiagonal& minv, double h, const double* q, const double* p,
-                const double* force, Workspace& ws) {
+                const double* force, Workspace& ws, bool with_velocity = true) {
   const int n = minv.size();
   const double half = 0.5 * h;
   double* ph = ws.p_half.data();
@@ -164,6 +173,13 @@ void kick_drift(const sparse::BlockDiagonal& minv, double h, const double* q, co
   double* qn = ws.q_next.data();
   if (minv.is_diagonal()) {
     const double* w = minv.diagonal();
+    if (!with_velocity) {  // the fused chain step computes its velocities itself: one stream less
+      for (int i = 0; i < n; ++i) {
+        ph[i] = p[i] + half * force[i];
+        qn[i] = q[i] + h * (w[i] * ph[i]);  // as below, to the bit
+      }
+      return;
+    }
     for (int i = 0; i < n; ++i) {
       ph[i] = p[i] + half * force[i];
       v[i] = w[i] * ph[i];
@@ -180,7 +196,7 @@ void kick_drift(const sparse::BlockDiagonal& minv, double h, const double* q, co
 // force_next, applied, C(q_{k+1}) factorised): measure the parasitic amplitude when it is
 // due, restart when options ask, and plan the next measurement in `watch`.
 Status control_mode(const Model& model, Workspace& ws, const State& s, const RestartOptions& o, double h,
-                    ModeWatch& watch) {
+                    ModeWatch& watch, bool fused) {
   ws.parasitic = std::numeric_limits<double>::quiet_NaN();
   ws.restarted = false;
   const long now = s.steps + 1;
@@ -191,13 +207,19 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
   const bool measure = detail::measurement_due(o, watch, now) && !(gap_offset && s.steps == 0);
   bool restart = detail::periodic_restart_due(o, now);
   if (!measure && !restart) return Status::Ok;
-  Status status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied);
-  if (status != Status::Ok) return status;
-  if (measure) {
-    ws.parasitic = detail::parasitic_of(model, ws, ws.p_next, ws.lambda, h, gap_offset);
-    restart = detail::plan_after_measurement(o, h, watch, now, ws.parasitic) || restart;
+  Status status = Status::Ok;
+  if (fused && measure) {  // the sweeps just left sin/cos and C of q_{k+1}: two passes
+    status = detail::chain_measure(model, ws, ws.p_next.data(), ws.lambda.data(), h, gap_offset, ws.parasitic);
+    if (status != Status::Ok) return status;
+  } else {
+    if ((status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied)) != Status::Ok)
+      return status;
+    if (measure) ws.parasitic = detail::parasitic_of(model, ws, ws.p_next, ws.lambda, h, gap_offset);
   }
+  if (measure) restart = detail::plan_after_measurement(o, h, watch, now, ws.parasitic) || restart;
   if (restart) {
+    // The restart reads mu(q_{k+1}), which the fused measurement did not need.
+    if (fused && (status = ws.evaluate_one_forms(ws.q_next)) != Status::Ok) return status;
     status = detail::rescaled_restart(model, ws, ws.q_next, ws.p_next, ws.lambda, ws.force_next, ws.applied, h,
                                       gap_offset);
     if (status != Status::Ok) return status;
@@ -227,7 +249,7 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
   if (ws.fused()) {  // a chain of elements: two sweeps over the bodies (chain_sweep.cpp)
     const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
     if (holonomic) {
-      kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
+      kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws, false);
       const Status status = enforce_gaps(model, ws, s, options, h);
       if (status != Status::Ok) return status;
     }
@@ -302,7 +324,7 @@ Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOpti
   ws.parasitic = m > 0 ? std::numeric_limits<double>::quiet_NaN() : 0.0;
   ws.restarted = false;
   if (m > 0 && watch) {
-    const Status status = control_mode(model, ws, s, options.restart, h, *watch);
+    const Status status = control_mode(model, ws, s, options.restart, h, *watch, fused);
     if (status != Status::Ok) return status;
   }
 

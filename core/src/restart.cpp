@@ -117,7 +117,14 @@ Status maps_unchanged(const Model& model, Workspace& ws, ConstVecRef q, ConstVec
 
 bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, long now, double a) {
   long interval = o.monitor_every;
-  const double tolerance = o.tolerance_for(h);
+  // The default tolerance (o.tolerance = 0) gives way to the floor; one the user set does not.
+  const bool floored = o.mode == RestartMode::Auto && !(o.tolerance > 0.0);
+  double tolerance = std::max(o.tolerance_for(h), floored ? 2.0 * w.floor : 0.0);
+  if (floored && w.after_restart && now == w.last_step + 1 && a > tolerance) {
+    w.floor = a;  // a restart one step ago could not bring it lower (ModeWatch::floor)
+    tolerance = 2.0 * a;
+  }
+  w.after_restart = false;
   const bool restart = o.mode == RestartMode::Auto && !(a <= tolerance);
   if (o.mode == RestartMode::Auto) {
     if (!(a <= tolerance)) {
@@ -139,6 +146,7 @@ bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, lon
 void plan_after_restart(const RestartOptions& o, ModeWatch& w, long now) {
   w.last_step = now;
   w.last_amplitude = 0.0;
+  w.after_restart = true;
   if (o.mode == RestartMode::Auto) w.next_step = now + 1;
 }
 

@@ -52,6 +52,13 @@ struct ModeWatch {
   long next_step = 1;
   long last_step = 0;
   double last_amplitude = 0.0;
+  // Auto restarts: an amplitude measured the step after a restart and already above the
+  // tolerance is what restarts cannot remove (in holonomic mode the round-off of the hitch
+  // gaps, 16 eps |q| each, summed over a long chain: 6e-6 at 10^6 bodies, h = 0.01). Auto with
+  // the default tolerance then restarts only above twice the largest such floor, rather than
+  // at nearly every step; a tolerance the user set is kept as it is.
+  double floor = 0.0;
+  bool after_restart = false;
 };
 
 }  // namespace nonholo
