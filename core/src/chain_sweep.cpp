@@ -463,7 +463,7 @@ Status sweep_knives(const Model& model, Workspace& ws, const State& st, const Ra
 
 Status chain_sweep(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
                    double t_next, bool kicked, double& check) {
-  if (model.element_set()->knife_chain && ws.banded()->bandwidth() == 0 && !kicked)
+  if (knife_sweep(model, ws, kicked))
     return sweep_knives(model, ws, st, o, h, t_next, check);
   if (model.element_set()->hitched_chain && ws.banded()->bandwidth() == 4)
     return sweep_hitched(model, ws, st, o, h, t_next, kicked, check);

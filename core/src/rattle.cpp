@@ -178,9 +178,10 @@ void kick_drift(const sparse::BlockDiagonal& minv, double h, const double* q, co
 
 // After the step's candidate state at t_{k+1} is complete (ws.q_next, p_next, lambda,
 // force_next, applied, C(q_{k+1}) factorised): measure the parasitic amplitude when it is
-// due, restart when options ask, and plan the next measurement in `watch`.
+// due, restart when options ask, and plan the next measurement in `watch`. `knives`: the step
+// was a knife_sweep, whose measurement needs only the sweep's data (knife_mode.cpp).
 Status control_mode(const Model& model, Workspace& ws, const State& s, const RestartOptions& o, double h,
-                    ModeWatch& watch) {
+                    ModeWatch& watch, bool knives) {
   ws.parasitic = std::numeric_limits<double>::quiet_NaN();
   ws.restarted = false;
   const long now = s.steps + 1;
@@ -191,13 +192,20 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
   const bool measure = detail::measurement_due(o, watch, now) && !(gap_offset && s.steps == 0);
   bool restart = detail::periodic_restart_due(o, now);
   if (!measure && !restart) return Status::Ok;
-  Status status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied);
-  if (status != Status::Ok) return status;
-  if (measure) {
-    ws.parasitic = detail::parasitic_of(model, ws, ws.p_next, ws.lambda, h, gap_offset);
-    restart = detail::plan_after_measurement(o, h, watch, now, ws.parasitic) || restart;
+  Status status = Status::Ok;
+  // Whether continuous_multiplier_at has left mu(q_{k+1}) and lambda_s for a restart.
+  bool multiplier = false;
+  if (!(measure && knives && detail::knife_chain_parasitic(model, ws, ws.p_next, ws.lambda, h, ws.parasitic))) {
+    if ((status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied)) != Status::Ok)
+      return status;
+    multiplier = true;
+    if (measure) ws.parasitic = detail::parasitic_of(model, ws, ws.p_next, ws.lambda, h, gap_offset);
   }
+  if (measure) restart = detail::plan_after_measurement(o, h, watch, now, ws.parasitic) || restart;
   if (restart) {
+    if (!multiplier &&
+        (status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied)) != Status::Ok)
+      return status;
     status = detail::rescaled_restart(model, ws, ws.q_next, ws.p_next, ws.lambda, ws.force_next, ws.applied, h,
                                       gap_offset);
     if (status != Status::Ok) return status;
@@ -212,7 +220,7 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
 namespace detail {
 
 Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h,
-                   double t_next, ModeWatch* watch, double check, bool fused);
+                   double t_next, ModeWatch* watch, double check, bool fused, bool knives);
 
 Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h, double t_next,
                ModeWatch* watch) {
@@ -233,7 +241,7 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
     }
     const Status status = chain_sweep(model, ws, s, options, h, t_next, holonomic, check);
     if (status != Status::Ok) return status;
-    return finish_step(model, ws, s, options, h, t_next, watch, check, true);
+    return finish_step(model, ws, s, options, h, t_next, watch, check, true, knife_sweep(model, ws, holonomic));
   }
   // Half kick with the forces at t_k, then drift.
   kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
@@ -284,13 +292,13 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
     ws.p_next = forced ? ws.p_hat : ws.p_half;
     check = ws.q_next.sum() + ws.p_next.sum() + ws.force_next.sum();
   }
-  return finish_step(model, ws, s, options, h, t_next, watch, check, false);
+  return finish_step(model, ws, s, options, h, t_next, watch, check, false, false);
 }
 
 // The new state is in ws.q_next, p_next, lambda, force_next: check it, control the period-2
 // mode, commit.
 Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h,
-                   double t_next, ModeWatch* watch, double check, bool fused) {
+                   double t_next, ModeWatch* watch, double check, bool fused, bool knives) {
   const int m = model.num_one_forms();
   if (!std::isfinite(check))
     return ws.fail(Status::NonFiniteState,
@@ -302,7 +310,7 @@ Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOpti
   ws.parasitic = m > 0 ? std::numeric_limits<double>::quiet_NaN() : 0.0;
   ws.restarted = false;
   if (m > 0 && watch) {
-    const Status status = control_mode(model, ws, s, options.restart, h, *watch);
+    const Status status = control_mode(model, ws, s, options.restart, h, *watch, knives);
     if (status != Status::Ok) return status;
   }
 
