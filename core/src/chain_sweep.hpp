@@ -74,8 +74,8 @@ inline bool knife_sweep(const Model& model, Workspace& ws, bool kicked) {
 
 // Right after a knife_sweep step, with p and lambda its new p~ and lambda~: the period-2 mode's
 // amplitude and ws.lambda_s, ws.velocity as continuous_multiplier_at + parasitic_of give them
-// (the same operations; knife_mode.cpp), without mu. False when lambda_s is not finite (the
-// general path then reports it).
+// (to round-off, bit for bit for one body; knife_mode.cpp), without mu. False when lambda_s is
+// not finite (the general path then reports it).
 bool knife_chain_parasitic(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRef lambda, double h,
                            double& amplitude);
 

@@ -309,7 +309,9 @@ Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOpti
   // The period-2 mode at t_{k+1} (restart.hpp): measure, then restart as asked.
   ws.parasitic = m > 0 ? std::numeric_limits<double>::quiet_NaN() : 0.0;
   ws.restarted = false;
-  if (m > 0 && watch) {
+  const long now = s.steps + 1;  // most steps have nothing due: no call
+  if (m > 0 && watch &&
+      (measurement_due(options.restart, *watch, now) || periodic_restart_due(options.restart, now))) {
     const Status status = control_mode(model, ws, s, options.restart, h, *watch, knives);
     if (status != Status::Ok) return status;
   }
@@ -342,8 +344,11 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
   if (model.has_configuration_metric())
     return ws.fail(Status::MethodNotApplicable,
                    "the explicit step needs a constant metric; use implicit_step (implicit.hpp)");
-  if (const detail::OptionProblem p = detail::rattle_problem(options))
-    return ws.fail(Status::InvalidOptions, "RattleOptions: %s = %g %s", p.what, p.value, p.rule);
+  if (!ws.options_checked(options)) {
+    if (const detail::OptionProblem p = detail::rattle_problem(options))
+      return ws.fail(Status::InvalidOptions, "RattleOptions: %s = %g %s", p.what, p.value, p.rule);
+    ws.remember_options(options);
+  }
   if (options.order != 2 || options.composition != Composition::Auto) {
     const Status status = detail::composed_step(model, ws, s, options);
     ws.step_diagnostics.q = nullptr;  // its end may restart; diagnose_step computes afresh
