@@ -140,8 +140,11 @@ bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, lon
                 prediction_far_below(a, a / w.last_amplitude, interval, now - w.last_step, tolerance))) {
     } else if (a > 0.0) {
       double growth = 2.0;
-      if (w.last_amplitude > 0.0)
-        growth = std::max(1.0, std::pow(a / w.last_amplitude, 1.0 / static_cast<double>(now - w.last_step)));
+      if (w.last_amplitude > 0.0) {
+        const long k = now - w.last_step;  // pow(r, 1) is r exactly: no call
+        const double r = a / w.last_amplitude;
+        growth = std::max(1.0, k == 1 ? r : std::pow(r, 1.0 / static_cast<double>(k)));
+      }
       if (growth > 1.0)
         interval = std::min(interval, static_cast<long>(std::log(0.5 * tolerance / a) / std::log(growth)));
     }

@@ -101,7 +101,7 @@ class alignas(128) Workspace {
 
   // --- the fused chain step (core/src/chain_sweep.cpp) -----------------------------------
   // Whether step() streams this model body by body: a chain of elements on the banded backend.
-  bool fused() const { return banded_ != nullptr && model_->is_chain(); }
+  bool fused() const { return banded_ != nullptr && chain_; }
   sparse::BandedLdlt* banded() { return banded_; }
   // sin and cos of each body's angle at the last fused step's q (2 per body).
   Vector chain_sincos;
@@ -131,6 +131,7 @@ class alignas(128) Workspace {
 
  private:
   const Model* model_;
+  const bool chain_ = model_->is_chain();  // asked once (initialised before the constructor's body)
   std::unique_ptr<sparse::Factorization> factor_;
   sparse::BandedLdlt* banded_ = nullptr;  // factor_ when it is banded
   Vector mu_q_;            // the q of mu_values and of the factorisation, when key_valid_
