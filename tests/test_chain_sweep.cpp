@@ -171,6 +171,34 @@ TEST(ChainSweep, ComposedStepsAgreeWithTheGeneralPath) {
   }
 }
 
+// A chain of knife edges measures the period-2 mode from its sweep's data (knife_mode.cpp):
+// the amplitude of every step equals parasitic_amplitude()'s through mu, the bias and a solve
+// on the same state (to the last bit without forces; the springs' forces are evaluated by
+// another callback there).
+TEST(ChainSweep, KnifeChainMeasuresTheModeAsTheGeneralPath) {
+  for (const Case& c : {Case{"sleigh", {}}, Case{"sleigh_chain", {"bodies=40", "hitched=0", "k=2"}}}) {
+    const auto setup = scene(c.scene, c.sets);
+    const Model& model = setup.model;
+    Workspace ws(model);
+    ASSERT_TRUE(ws.fused());
+    RattleOptions o;
+    o.restart.mode = RestartMode::Never;
+    o.restart.monitor_every = 1;
+    State s = start_from_velocity(model, ws, 0.0, setup.q0, setup.v0);
+    for (int k = 0; k < 300; ++k) {
+      ASSERT_EQ(step(model, ws, s, o), Status::Ok) << ws.message();
+      const double fast = ws.parasitic;
+      double general = -1.0;
+      ASSERT_EQ(parasitic_amplitude(model, ws, s, o.h, general, 0.0), Status::Ok) << ws.message();
+      ASSERT_GT(general, 0.0) << c.scene << " step " << k;
+      if (model.has_applied_force())
+        EXPECT_NEAR(fast, general, 1e-12 * general) << c.scene << " step " << k;
+      else
+        EXPECT_EQ(fast, general) << c.scene << " step " << k;
+    }
+  }
+}
+
 // What the sweeps compute for `nonholo run` equals diagnose() of the state they produced.
 TEST(ChainSweep, ItsDiagnosticsAreDiagnose) {
   for (const Case& c : kCases) {

@@ -15,6 +15,8 @@
 #include <cmath>
 #include <stdexcept>
 #include <type_traits>
+#include <utility>
+#include <vector>
 
 #include "support/expect_error.hpp"
 
@@ -117,6 +119,37 @@ TEST(LibraryContract, StepChecksItsOptions) {
   DlaOptions dla;
   dla.max_newton_iterations = 0;
   EXPECT_EQ(dla_step(model, ws, d, dla), Status::InvalidOptions);
+}
+
+// step() skips its checks for the options it last found valid (Workspace::options_checked):
+// after valid steps, a change of any one field to an invalid value is still refused.
+TEST(LibraryContract, StepChecksEveryChangedOptionAfterValidSteps) {
+  Faults f;
+  const Model model = sleigh(f);
+  Workspace ws(model);
+  State s = start_from_velocity(model, ws, 0.0, Eigen::Vector3d(0, 0, 0.4), Eigen::Vector3d(1, 0, 0.5));
+  const std::vector<std::pair<const char*, void (*)(RattleOptions&)>> bad{
+      {"min_pivot_ratio", [](RattleOptions& o) { o.min_pivot_ratio = 2.0; }},
+      {"gap_tolerance", [](RattleOptions& o) { o.gap_tolerance = -1.0; }},
+      {"gap_tolerance_limit", [](RattleOptions& o) { o.gap_tolerance_limit = 0.0; }},
+      {"max_gap_iterations", [](RattleOptions& o) { o.max_gap_iterations = 0; }},
+      {"restart every", [](RattleOptions& o) { o.restart.mode = RestartMode::Periodic; }},
+      {"restart every", [](RattleOptions& o) { o.restart.every = -1; }},
+      {"restart tolerance", [](RattleOptions& o) { o.restart.tolerance = -1.0; }},
+      {"monitor_every", [](RattleOptions& o) { o.restart.monitor_every = 0; }},
+      {"order", [](RattleOptions& o) { o.order = 3; }},
+      {"order", [](RattleOptions& o) { o.composition = Composition::KahanLi9; }},
+  };
+  for (const auto& [what, spoil] : bad) {
+    RattleOptions o{0.01};
+    ASSERT_EQ(step(model, ws, s, o), Status::Ok) << ws.message();
+    ASSERT_EQ(step(model, ws, s, o), Status::Ok) << ws.message();
+    const State before = s;
+    spoil(o);
+    EXPECT_EQ(step(model, ws, s, o), Status::InvalidOptions) << what;
+    EXPECT_THAT(ws.message(), HasSubstr(what));
+    EXPECT_TRUE(same(s, before)) << what;
+  }
 }
 
 TEST(LibraryContract, UnderFilledCallbackIsNamedAtTheStart) {

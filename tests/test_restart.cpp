@@ -20,6 +20,9 @@
 #include <cmath>
 #include <iostream>
 #include <limits>
+#include <random>
+
+#include "../core/src/restart_internal.hpp"
 
 namespace nonholo {
 namespace {
@@ -240,6 +243,57 @@ TEST(Restart, AMomentumMapNotLinearInPIsRefusedAndTheStateKept) {
 // Holonomic mode: lambda~ settles at lambda_s - dlambda/2 (dlambda the gap correction), an
 // O(h) offset; measured about that offset the amplitude keeps the O(h^3) of the mode's seed,
 // so automatic restarts stay rare (measured about lambda_s it was O(h^2): a restart every step).
+// The measurement schedule skips its pow and logs when the prediction is far below the
+// tolerance (restart.cpp): the plan must be the one the logarithms give, near the boundary too.
+TEST(AutoRestart, ScheduleIsThatOfTheGrowthFormula) {
+  auto reference = [](const RestartOptions& o, double h, ModeWatch& w, long now, double a) {
+    long interval = o.monitor_every;
+    const double tolerance = o.tolerance_for(h);
+    if (!(a <= tolerance)) {
+      interval = 1;
+    } else if (a > 0.0) {
+      double growth = 2.0;
+      if (w.last_amplitude > 0.0)
+        growth = std::max(1.0, std::pow(a / w.last_amplitude, 1.0 / static_cast<double>(now - w.last_step)));
+      if (growth > 1.0)
+        interval = std::min(interval, static_cast<long>(std::log(0.5 * tolerance / a) / std::log(growth)));
+    }
+    w.next_step = now + std::max(1L, interval);
+    w.last_step = now;
+    w.last_amplitude = a;
+  };
+  std::mt19937_64 random(12);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double h = 0.01, tolerance = h * h * h;
+  long checked = 0;
+  for (int every : {1, 2, 8, 100}) {
+    RestartOptions o;
+    o.monitor_every = every;
+    for (int trial = 0; trial < 20000; ++trial) {
+      ModeWatch w;
+      const long k = 1 + static_cast<long>(unit(random) * every);
+      w.last_step = 1000;
+      w.last_amplitude = trial % 10 == 0 ? 0.0 : tolerance * std::pow(10.0, -6.0 * unit(random));
+      const long now = w.last_step + k;
+      // Half the trials put the prediction a r^(every/k) within a factor 4 of tolerance / 2.
+      double a = tolerance * std::pow(10.0, -6.0 * unit(random));
+      if (trial % 2 && w.last_amplitude > 0.0) {
+        const double target = 0.5 * tolerance * std::pow(4.0, 2.0 * unit(random) - 1.0);
+        // a (a / last)^(every / k) = target: a^(1 + e) = target last^e
+        const double e = static_cast<double>(every) / static_cast<double>(k);
+        a = std::min(tolerance, std::exp((std::log(target) + e * std::log(w.last_amplitude)) / (1.0 + e)));
+      }
+      ModeWatch expected = w;
+      reference(o, h, expected, now, a);
+      const bool restart = detail::plan_after_measurement(o, h, w, now, a);
+      EXPECT_EQ(restart, !(a <= tolerance));
+      ASSERT_EQ(w.next_step, expected.next_step) << "a " << a << " last " << expected.last_amplitude << " k " << k;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 80000);
+}
+
 TEST(AutoRestart, HolonomicModeMeasuresTheModeAboutItsOffset) {
   const auto setup = scene("sleigh_chain", {"bodies=100"});
   double amplitude[2];

@@ -90,14 +90,18 @@ struct Forward {
     return Status::Ok;
   }
 
+  // Kicked, Forced: 1 or 0 fixes `kicked` or `forced` at compile time (a small model's sweep
+  // is mostly these branches), -1 reads the member.
+  template <int Kicked = -1, int Forced = -1>
   void enter(int i, bool trigonometry) {
+    const bool was_kicked = Kicked >= 0 ? Kicked == 1 : kicked;
     const ChainBody& b = body[i];
     const double w[3] = {b.wx, b.wy, b.wt};
     double* qi = qn + 3 * i;
     double* pi = ph + 3 * i;
     double kin = 0.0, chk = 0.0;  // one add per body to each long sum (they are serial)
     for (int c = 0; c < 3; ++c) {
-      if (!kicked) {
+      if (!was_kicked) {
         pi[c] = p[3 * i + c] + 0.5 * h * force[3 * i + c];
         qi[c] = q[3 * i + c] + h * w[c] * pi[c];
       }
@@ -108,7 +112,7 @@ struct Forward {
     kinetic_post.add(kin);
     check += chk;
     if (trigonometry) sin_cos(qi[2], sc + 2 * i);
-    if (!forced) return;
+    if (!(Forced >= 0 ? Forced == 1 : forced)) return;
     double* f = fa + 3 * i;
     f[0] = f[1] = f[2] = 0.0;
     for (; next_thrust < set.thrusts.size() && set.thrusts[next_thrust].body == i; ++next_thrust) {
@@ -397,7 +401,9 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
 
 // Knife edges only (ElementSet::knife_chain): C is diagonal, C_bb = wx s^2 + wy c^2 + wt a^2,
 // so each body's multiplier follows as soon as its p^ is known (one body behind, for the
-// spring to the next body): the whole step is one forward sweep.
+// spring to the next body): the whole step is one forward sweep. `forced`: the model has an
+// applied force (fixed at compile time: on a single sleigh its branches cost a tenth of the step).
+template <bool forced>
 Status sweep_knives(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
                     double t_next, double& check) {
   const ElementSet& set = *model.element_set();
@@ -405,14 +411,13 @@ Status sweep_knives(const Model& model, Workspace& ws, const State& st, const Ra
   const int n_bodies = static_cast<int>(set.chain.size());
   sparse::BandedLdlt& band = *ws.banded();
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
-  const bool forced = model.has_applied_force();
 
   Forward fw(model, ws, st, h, t_next, false);
   double *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *sc = fw.sc;
   BlockSum kinetic;
   double residual = 0.0;
   for (int i = 0; i <= n_bodies; ++i) {
-    if (i < n_bodies) fw.enter(i, true);  // body i enters
+    if (i < n_bodies) fw.enter<0, forced>(i, true);  // body i enters
     if (i >= 1) {  // body b = i-1 complete: its multiplier and p~ at once
       const int b = i - 1;
       const ChainBody& cb = body[b];
@@ -447,8 +452,9 @@ Status sweep_knives(const Model& model, Workspace& ws, const State& st, const Ra
 
 Status chain_sweep(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
                    double t_next, bool kicked, double& check) {
-  if (model.element_set()->knife_chain && ws.banded()->bandwidth() == 0 && !kicked)
-    return sweep_knives(model, ws, st, o, h, t_next, check);
+  if (knife_sweep(model, ws, kicked))
+    return model.has_applied_force() ? sweep_knives<true>(model, ws, st, o, h, t_next, check)
+                                     : sweep_knives<false>(model, ws, st, o, h, t_next, check);
   if (model.element_set()->hitched_chain && ws.banded()->bandwidth() == 4)
     return sweep_hitched(model, ws, st, o, h, t_next, kicked, check);
   switch (ws.banded()->bandwidth()) {  // chains: 4 (knife edges and hitches), 0 (knife edges only)

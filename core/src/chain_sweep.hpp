@@ -3,6 +3,8 @@
 // banded backend (Workspace::fused) to it.
 #include <nonholo/rattle.hpp>
 
+#include "element_set.hpp"
+
 #if defined(__SSE__)
 #include <xmmintrin.h>
 #endif
@@ -82,5 +84,17 @@ Status chain_measure(const Model& model, Workspace& ws, const double* p, const d
 // Never throws (thrust callbacks are guarded by the caller); the state is not touched.
 Status chain_sweep(const Model& model, Workspace& ws, const State& state, const RattleOptions& options, double h,
                    double t_next, bool kicked, double& check);
+
+// Whether chain_sweep takes the one-sweep path of a chain of knife edges (C diagonal).
+inline bool knife_sweep(const Model& model, Workspace& ws, bool kicked) {
+  return model.element_set()->knife_chain && ws.banded()->bandwidth() == 0 && !kicked;
+}
+
+// Right after a knife_sweep step, with p and lambda its new p~ and lambda~: the period-2 mode's
+// amplitude and ws.lambda_s, ws.velocity as continuous_multiplier_at + parasitic_of give them
+// (to round-off, bit for bit for one body; knife_mode.cpp), without mu. False when lambda_s is
+// not finite (the general path then reports it).
+bool knife_chain_parasitic(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRef lambda, double h,
+                           double& amplitude);
 
 }  // namespace nonholo::detail

@@ -194,9 +194,11 @@ void kick_drift(const sparse::BlockDiagonal& minv, double h, const double* q, co
 
 // After the step's candidate state at t_{k+1} is complete (ws.q_next, p_next, lambda,
 // force_next, applied, C(q_{k+1}) factorised): measure the parasitic amplitude when it is
-// due, restart when options ask, and plan the next measurement in `watch`.
+// due, restart when options ask, and plan the next measurement in `watch`. `fused`: the step
+// was a chain sweep, measured in two passes from its data (chain_measure.cpp); `knives`: a
+// knife_sweep, measured in one (knife_mode.cpp).
 Status control_mode(const Model& model, Workspace& ws, const State& s, const RestartOptions& o, double h,
-                    ModeWatch& watch, bool fused) {
+                    ModeWatch& watch, bool fused, bool knives) {
   ws.parasitic = std::numeric_limits<double>::quiet_NaN();
   ws.restarted = false;
   const long now = s.steps + 1;
@@ -208,18 +210,27 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
   bool restart = detail::periodic_restart_due(o, now);
   if (!measure && !restart) return Status::Ok;
   Status status = Status::Ok;
-  if (fused && measure) {  // the sweeps just left sin/cos and C of q_{k+1}: two passes
-    status = detail::chain_measure(model, ws, ws.p_next.data(), ws.lambda.data(), h, gap_offset, ws.parasitic);
-    if (status != Status::Ok) return status;
-  } else {
+  // Whether continuous_multiplier_at has left mu(q_{k+1}) and lambda_s for a restart.
+  bool multiplier = false, measured = false;
+  if (measure && knives) {
+    measured = detail::knife_chain_parasitic(model, ws, ws.p_next, ws.lambda, h, ws.parasitic);
+  } else if (measure && fused) {  // the sweeps just left sin/cos and C of q_{k+1}: two passes
+    if ((status = detail::chain_measure(model, ws, ws.p_next.data(), ws.lambda.data(), h, gap_offset,
+                                        ws.parasitic)) != Status::Ok)
+      return status;
+    measured = true;
+  }
+  if (!measured) {
     if ((status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied)) != Status::Ok)
       return status;
+    multiplier = true;
     if (measure) ws.parasitic = detail::parasitic_of(model, ws, ws.p_next, ws.lambda, h, gap_offset);
   }
   if (measure) restart = detail::plan_after_measurement(o, h, watch, now, ws.parasitic) || restart;
   if (restart) {
-    // The restart reads mu(q_{k+1}), which the fused measurement did not need.
-    if (fused && (status = ws.evaluate_one_forms(ws.q_next)) != Status::Ok) return status;
+    if (!multiplier &&
+        (status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied)) != Status::Ok)
+      return status;
     status = detail::rescaled_restart(model, ws, ws.q_next, ws.p_next, ws.lambda, ws.force_next, ws.applied, h,
                                       gap_offset);
     if (status != Status::Ok) return status;
@@ -234,7 +245,7 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
 namespace detail {
 
 Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h,
-                   double t_next, ModeWatch* watch, double check, bool fused);
+                   double t_next, ModeWatch* watch, double check, bool fused, bool knives);
 
 Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h, double t_next,
                ModeWatch* watch) {
@@ -255,7 +266,7 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
     }
     const Status status = chain_sweep(model, ws, s, options, h, t_next, holonomic, check);
     if (status != Status::Ok) return status;
-    return finish_step(model, ws, s, options, h, t_next, watch, check, true);
+    return finish_step(model, ws, s, options, h, t_next, watch, check, true, knife_sweep(model, ws, holonomic));
   }
   // Half kick with the forces at t_k, then drift.
   kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
@@ -306,13 +317,13 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
     ws.p_next = forced ? ws.p_hat : ws.p_half;
     check = ws.q_next.sum() + ws.p_next.sum() + ws.force_next.sum();
   }
-  return finish_step(model, ws, s, options, h, t_next, watch, check, false);
+  return finish_step(model, ws, s, options, h, t_next, watch, check, false, false);
 }
 
 // The new state is in ws.q_next, p_next, lambda, force_next: check it, control the period-2
 // mode, commit.
 Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOptions& options, double h,
-                   double t_next, ModeWatch* watch, double check, bool fused) {
+                   double t_next, ModeWatch* watch, double check, bool fused, bool knives) {
   const int m = model.num_one_forms();
   if (!std::isfinite(check))
     return ws.fail(Status::NonFiniteState,
@@ -323,8 +334,10 @@ Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOpti
   // The period-2 mode at t_{k+1} (restart.hpp): measure, then restart as asked.
   ws.parasitic = m > 0 ? std::numeric_limits<double>::quiet_NaN() : 0.0;
   ws.restarted = false;
-  if (m > 0 && watch) {
-    const Status status = control_mode(model, ws, s, options.restart, h, *watch, fused);
+  const long now = s.steps + 1;  // most steps have nothing due: no call
+  if (m > 0 && watch &&
+      (measurement_due(options.restart, *watch, now) || periodic_restart_due(options.restart, now))) {
+    const Status status = control_mode(model, ws, s, options.restart, h, *watch, fused, knives);
     if (status != Status::Ok) return status;
   }
 
@@ -356,8 +369,11 @@ Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& op
   if (model.has_configuration_metric())
     return ws.fail(Status::MethodNotApplicable,
                    "the explicit step needs a constant metric; use implicit_step (implicit.hpp)");
-  if (const detail::OptionProblem p = detail::rattle_problem(options))
-    return ws.fail(Status::InvalidOptions, "RattleOptions: %s = %g %s", p.what, p.value, p.rule);
+  if (!ws.options_checked(options)) {
+    if (const detail::OptionProblem p = detail::rattle_problem(options))
+      return ws.fail(Status::InvalidOptions, "RattleOptions: %s = %g %s", p.what, p.value, p.rule);
+    ws.remember_options(options);
+  }
   if (options.order != 2 || options.composition != Composition::Auto) {
     const Status status = detail::composed_step(model, ws, s, options);
     ws.step_diagnostics.q = nullptr;  // its end may restart; diagnose_step computes afresh

@@ -2,9 +2,8 @@
 // The reflection integrator of Ferraro, Iglesias and Martin de Diego for a constant metric:
 // the explicit nonholonomic RATTLE of DESIGN.md section 2, one factorisation of
 // C = mu M^-1 mu^T per step. With f = 0 it is exactly p_{k+1/2} = (P - Q)*_{q_k} p_{k-1/2}.
-#include <nonholo/composition.hpp>
 #include <nonholo/model.hpp>
-#include <nonholo/restart_options.hpp>
+#include <nonholo/rattle_options.hpp>
 #include <nonholo/state.hpp>
 #include <nonholo/status.hpp>
 #include <nonholo/workspace.hpp>
@@ -12,52 +11,6 @@
 #include <string>
 
 namespace nonholo {
-
-// How the model's holonomic constraints (hitches, DESIGN.md section 4) are treated:
-//   OneForm    their gradient rows are plain one-forms (the paper's method: the
-//              post-momentum energy is exact for f = 0, the gap |g| drifts slowly);
-//   Holonomic  as RATTLE does: the first half kick gets a correction mu_k^T dlambda that
-//              puts g(q_{k+1}) = 0 while keeping the other one-forms' averages exact
-//              (simplified Newton with the factorisation of C(q_k) the previous step left),
-//              and the gradient rows join mu in the second half kick as usual.
-enum class HitchMode { OneForm, Holonomic };
-const char* to_string(HitchMode mode);  // "oneform", "holonomic"
-// Throws std::invalid_argument naming the valid choices.
-HitchMode hitch_mode_from_string(const std::string& name);
-
-struct RattleOptions {
-  double h = 0.01;  // time step
-  // Smallest accepted pivot of C relative to its diagonal (squared sine of the angle between
-  // a one-form and the span of the others). Below it the step refuses: nearly dependent
-  // one-forms would make lambda meaningless.
-  double min_pivot_ratio = 1e-12;
-  HitchMode hitch = HitchMode::Holonomic;
-  // Holonomic mode: iterate until max_j |g_j(q_{k+1})| <= gap_tolerance (raised to
-  // 16 eps max|q| when coordinates are so large that round-off alone exceeds it, but never
-  // beyond gap_tolerance_limit: at |q| ~ 1e19 round-off is 3e4, and a hitch "closed" to that
-  // is no hitch; such a step fails with GapNotConverged and says why) ...
-  double gap_tolerance = 1e-12;
-  double gap_tolerance_limit = 1e-6;
-  // ... or fail with Status::GapNotConverged after this many corrections.
-  int max_gap_iterations = 20;
-
-  // The period-2 mode: measured at the end of every few steps, restarted when needed.
-  RestartOptions restart = {};
-
-  // 2: the plain step of size h. 4 or 6: one step advances by H = h through the composition
-  // of double steps (composition.hpp, DESIGN.md section 9): 2 s plain substeps, each with
-  // its own time for the forces. At the composed step's end, the parasitic amplitude is
-  // measured (monitor_every > 0); restart.mode Auto restarts lambda~ <- lambda_s at every
-  // composed step, Periodic every `every` composed steps, Never not at all (the symmetric
-  // composition on (q, p~, lambda~)). A restart without external forces first brings the
-  // energy of p~, (1/2) p~^T M^-1 p~ + V(q), back to State::target_energy by scaling the
-  // part of p~ no momentum map sees (constraints and momentum maps stay exact).
-  int order = 2;
-  Composition composition = Composition::Auto;
-};
-
-// Throws std::invalid_argument with the offending value.
-void validate(const RattleOptions& options);
 
 // One step t_k -> t_k + h (composed when options.order > 2), then (as options.restart asks) the measurement of the parasitic
 // amplitude and a restart at t_{k+1}. Never throws and never allocates. On failure the state

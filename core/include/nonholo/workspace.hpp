@@ -3,6 +3,7 @@
 // own factorisation of C (for CHOLMOD, its own cholmod_common). One Workspace per thread;
 // the Model must outlive it. The buffers are scratch owned by the integrators.
 #include <nonholo/model.hpp>
+#include <nonholo/rattle_options.hpp>
 #include <nonholo/sparse/banded_ldlt.hpp>
 #include <nonholo/sparse/factorization.hpp>
 #include <nonholo/sparse/message.hpp>
@@ -95,10 +96,17 @@ class alignas(128) Workspace {
   Vector saved_q, saved_p, saved_lambda, saved_force;
   // Numeric factorisations of C so far (the unit of cost the methods are compared in).
   long factorizations = 0;
+  // Whether step() has found these options valid on this workspace before (it then skips its
+  // checks: on a small model they cost a tenth of a step), and remembering them.
+  bool options_checked(const RattleOptions& o) const { return options_known_ && same_options(o, options_); }
+  void remember_options(const RattleOptions& o) {
+    options_ = o;
+    options_known_ = true;
+  }
 
   // --- the fused chain step (core/src/chain_sweep.cpp) -----------------------------------
   // Whether step() streams this model body by body: a chain of elements on the banded backend.
-  bool fused() const { return banded_ != nullptr && model_->is_chain(); }
+  bool fused() const { return banded_ != nullptr && chain_; }
   sparse::BandedLdlt* banded() { return banded_; }
   // sin and cos of each body's angle at the last fused step's q (2 per body).
   Vector chain_sincos;
@@ -128,6 +136,7 @@ class alignas(128) Workspace {
 
  private:
   const Model* model_;
+  const bool chain_ = model_->is_chain();  // asked once (initialised before the constructor's body)
   std::unique_ptr<sparse::Factorization> factor_;
   sparse::BandedLdlt* banded_ = nullptr;  // factor_ when it is banded
   Vector mu_q_;            // the q of mu_values and of the factorisation, when key_valid_
@@ -135,6 +144,8 @@ class alignas(128) Workspace {
   bool mu_valid_ = false;     // mu_values holds mu(mu_q_)
   bool factor_valid_ = false;  // the factorisation holds C(mu(mu_q_))
   bool sincos_valid_ = false;  // chain_sincos holds sin/cos of mu_q_ (set by a fused step only)
+  bool options_known_ = false;  // options_ passed step()'s checks
+  RattleOptions options_;
   Status report_non_finite_one_forms();
   // " (row r is <label>)" for a labelled row of mu or C, "" otherwise; no allocation.
   const char* row_note(int row);
