@@ -392,6 +392,40 @@ TEST(AutoRestart, SleighMillionSteps) {
   EXPECT_LT(measured, 250000) << "the measurement is spaced out while the mode is small";
 }
 
+// Auto with the default tolerance: an amplitude above it at the step after a restart is a
+// floor that restarts cannot remove (a million-body chain's gap round-off); later restarts
+// fire only above twice it, and a higher one after another restart raises it. A measurement
+// that does not follow a restart sets no floor, and a tolerance the user set is kept.
+TEST(AutoRestart, AFloorAfterARestartRaisesOnlyTheDefaultTolerance) {
+  using detail::plan_after_measurement;
+  using detail::plan_after_restart;
+  const double h = 0.01, tol = h * h * h;
+  RestartOptions o;
+  ModeWatch w;
+  EXPECT_TRUE(plan_after_measurement(o, h, w, 10, 5 * tol));
+  EXPECT_EQ(w.floor, 0.0) << "not right after a restart";
+  plan_after_restart(o, w, 10);
+  EXPECT_FALSE(plan_after_measurement(o, h, w, 11, 3 * tol)) << "the floor itself";
+  EXPECT_EQ(w.floor, 3 * tol);
+  EXPECT_FALSE(plan_after_measurement(o, h, w, w.next_step, 5.9 * tol));
+  EXPECT_TRUE(plan_after_measurement(o, h, w, w.next_step, 6.1 * tol));
+  const long now = w.last_step;
+  plan_after_restart(o, w, now);
+  EXPECT_FALSE(plan_after_measurement(o, h, w, now + 1, 4 * tol)) << "below twice the floor: kept";
+  EXPECT_EQ(w.floor, 3 * tol);
+  plan_after_restart(o, w, now + 1);
+  EXPECT_FALSE(plan_after_measurement(o, h, w, now + 2, 7 * tol)) << "above: the new floor";
+  EXPECT_EQ(w.floor, 7 * tol);
+  EXPECT_FALSE(plan_after_measurement(o, h, w, now + 10, 7 * tol)) << "no restart two steps on either";
+
+  RestartOptions user;
+  user.tolerance = tol;
+  ModeWatch v;
+  plan_after_restart(user, v, 10);
+  EXPECT_TRUE(plan_after_measurement(user, h, v, 11, 3 * tol));
+  EXPECT_EQ(v.floor, 0.0);
+}
+
 // Long runs that the plain method cannot finish, or finishes wrong, end ok with the defaults.
 TEST(AutoRestart, LongRunsEndOkWithTheDefaults) {
   struct Case {

@@ -50,6 +50,11 @@ sparse::FactorStatus factorize_rows(const ElementSet& set, sparse::BandedLdlt& b
 
 }  // namespace
 
+void chain_sincos_of(const Model& model, ConstVecRef q, Vector& sincos) {
+  const int n_bodies = model.num_bodies();
+  for (int b = 0; b < n_bodies; ++b) sin_cos(q[3 * b + 2], sincos.data() + 2 * b);
+}
+
 sparse::FactorStatus factorize_chain(const Model& model, Workspace& ws, double min_pivot_ratio) {
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   const ElementSet& set = *model.element_set();
@@ -168,7 +173,7 @@ double chain_correct_backward(const Model& model, Workspace& ws, double* x, doub
   const int n_bodies = static_cast<int>(set.chain.size());
   sparse::BandedLdlt& band = *ws.banded();
   const int m = band.size();
-  const double* mu = ws.mu_values.data();
+  const double* so = ws.chain_sincos_prev.data();  // sin/cos of q_k: the rows of mu(q_k)
   double* ph = ws.p_half.data();
   double* qn = ws.q_next.data();
   double* sc = ws.chain_sincos.data();
@@ -176,29 +181,29 @@ double chain_correct_backward(const Model& model, Workspace& ws, double* x, doub
   const double half = 0.5 * h, drift = 0.5 * h * h;
   auto solved = [&](int r) { gm[r] = first ? x[r] : gm[r] + x[r]; };
   // p_half += (h/2) mu_k^T dlambda and q_next += (h^2/2) M^-1 mu_k^T dlambda on body b, from
-  // its knife edge [s, -c, a] and hitch rows [1, d s | ...], [1, -d c | ...] (values 11 b ...)
-  // and the previous hitch's [... | -1, f s], [... | -1, -f c].
+  // its knife edge [s, -c, a] and hitch rows [1, d s | ...], [1, -d c | ...] and the previous
+  // hitch's [... | -1, f s], [... | -1, -f c] (group_rows' values, in the same operations).
   auto correct = [&](int b) {
-    const double* mb = mu + 11 * b;
+    const ChainBody& cb = body[b];
+    const double s = so[2 * b], c = so[2 * b + 1];
     const double lk = x[3 * b];
-    double g[3] = {mb[0] * lk, mb[1] * lk, mb[2] * lk};
+    double g[3] = {s * lk, -c * lk, cb.a * lk};
     if (b + 1 < n_bodies) {
       const double lx = x[3 * b + 1], ly = x[3 * b + 2];
-      g[0] += mb[3] * lx;
-      g[1] += mb[7] * ly;
-      g[2] += mb[4] * lx + mb[8] * ly;
+      g[0] += lx;
+      g[1] += ly;
+      g[2] += (cb.d * s) * lx + (-cb.d * c) * ly;
     }
     if (b > 0) {
-      const double* mp = mu + 11 * (b - 1);
+      const double f = body[b - 1].f;
       const double px = x[3 * b - 2], py = x[3 * b - 1];
-      g[0] += mp[5] * px;
-      g[1] += mp[9] * py;
-      g[2] += mp[6] * px + mp[10] * py;
+      g[0] -= px;
+      g[1] -= py;
+      g[2] += (f * s) * px + (-f * c) * py;
     }
-    const ChainBody& cb = body[b];
-    for (int c = 0; c < 3; ++c) {
-      ph[3 * b + c] += half * g[c];
-      qn[3 * b + c] += drift * (&cb.wx)[c] * g[c];
+    for (int k = 0; k < 3; ++k) {
+      ph[3 * b + k] += half * g[k];
+      qn[3 * b + k] += drift * (&cb.wx)[k] * g[k];
     }
   };
   double worst = 0.0;

@@ -267,7 +267,7 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
   const bool forced = model.has_applied_force();
 
   Forward fw(model, ws, st, h, t_next, kicked);
-  double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *mu = fw.mu, *sc = fw.sc;
+  double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *sc = fw.sc;
   double vhat[2][3] = {};
   double gap = 0.0;
 
@@ -291,8 +291,6 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
       row[2] = -wx * s + wt * a * fp * s;
       row[3] = wy * c - wt * a * fp * c;
       row[4] = wx * s * s + wy * c * c + wt * a * a;
-      double* m = mu + 11 * b;
-      if (kicked) m[0] = s, m[1] = -c, m[2] = a;  // holonomic mode: the next step's corrections use mu
       const bool interior = b >= 2;  // rows r - 4 .. r exist: the band's zeros are skipped
       if (!(interior ? band.eliminate_interior_row<KD, 2>(r, o.min_pivot_ratio)
                      : band.eliminate_row<KD>(r, o.min_pivot_ratio))) return pivot_failure(ws, band, o.min_pivot_ratio);
@@ -312,10 +310,6 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
         ry[2] = -wy * c - wtd * a * c;
         ry[3] = -wtd * d * s * c - wtnf * f * sn * cn;
         ry[4] = wy + wtd * d * c * c + nb.wy + wtnf * f * cn * cn;
-        if (kicked) {
-          m[3] = 1.0, m[4] = d * s, m[5] = -1.0, m[6] = f * sn;
-          m[7] = 1.0, m[8] = -d * c, m[9] = -1.0, m[10] = -f * cn;
-        }
         gap = std::max(gap, std::abs(qn[3 * b] - d * c - qn[3 * b + 3] - f * cn));
         gap = std::max(gap, std::abs(qn[3 * b + 1] - d * s - qn[3 * b + 4] - f * sn));
         const bool ok = interior ? band.eliminate_interior_row<KD, 1>(r + 1, o.min_pivot_ratio) &&
@@ -395,7 +389,9 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
   }
   finish_body(0);
 
-  return fw.finish(ws, band, o.min_pivot_ratio, kinetic, residual, gap, kicked, check);
+  // mu is not written: the next step's holonomic corrections take their rows from these sin/cos
+  // (Workspace::chain_sincos_prev), a restart or diagnose() fills mu from them when it asks.
+  return fw.finish(ws, band, o.min_pivot_ratio, kinetic, residual, gap, false, check);
 }
 
 

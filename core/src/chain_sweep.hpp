@@ -52,9 +52,12 @@ void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef
 // from the elements' layout (Workspace::factorize for a chain: no Gram index map).
 sparse::FactorStatus factorize_chain(const Model& model, Workspace& ws, double min_pivot_ratio);
 
+// sin and cos of every body's angle at q (2 per body).
+void chain_sincos_of(const Model& model, ConstVecRef q, Vector& sincos);
+
 // Holonomic mode on the common chain (ElementSet::hitched_chain): the position iteration's
 // corrections C(q_k) dlambda = scale [g(q_{k+1}); 0] in two passes each, with C(q_k)
-// factorised in ws.banded() and mu(q_k) in ws.mu_values.
+// factorised in ws.banded() and sin/cos of q_k in ws.chain_sincos_prev.
 // chain_gap_forward: sin/cos of ws.q_next into ws.chain_sincos, the right-hand side (0 on the
 // knife rows) forward-substituted into y, max |q_next| into size; returns max |g| (NaN when a
 // gap is).

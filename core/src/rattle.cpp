@@ -104,12 +104,23 @@ Status gap_failure(const Model& model, Workspace& ws, const State& s, const Ratt
 // with the Jacobian frozen at q_k, converging at a rate O(h |thetadot|)) and 0 on the other
 // rows, so mu_k (q_{k+1} - q_{k-1}) = 0 still holds for them.
 Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const RattleOptions& o, double h) {
-  Status status = ws.factorize_at(s.q, o.min_pivot_ratio);
-  if (status != Status::Ok) return status;
   // A chain of knife edges and hitches: two passes over the bodies per correction
   // (chain_passes.cpp), forward (gaps and forward substitution) and backward (back
   // substitution, correction, the next gaps); the last leaves sin/cos of q_{k+1} for the sweep.
+  // Its corrections take mu(q_k)'s rows from sin/cos of q_k, moved to chain_sincos_prev.
   const bool chain = ws.fused() && model.element_set()->hitched_chain;
+  Status status = Status::Ok;
+  if (!chain || !ws.chain_factor_holds(s.q)) {  // a fused step to q_k left both C(q_k) and them
+    if ((status = ws.factorize_at(s.q, o.min_pivot_ratio)) != Status::Ok) return status;
+    if (chain) {
+      detail::chain_sincos_of(model, s.q, ws.chain_sincos);
+      ws.sincos_computed_for_key();
+    }
+  }
+  if (chain) {
+    ws.chain_sincos.swap(ws.chain_sincos_prev);  // pointers only
+    ws.forget_sincos();
+  }
   const double scale = -2.0 / (h * h);
   double* x = ws.scratch_m.data();
   double size = 0.0, worst = 0.0;

@@ -108,8 +108,11 @@ class alignas(128) Workspace {
   // Whether step() streams this model body by body: a chain of elements on the banded backend.
   bool fused() const { return banded_ != nullptr && chain_; }
   sparse::BandedLdlt* banded() { return banded_; }
-  // sin and cos of each body's angle at the last fused step's q (2 per body).
-  Vector chain_sincos;
+  // sin and cos of each body's angle at the last fused step's q (2 per body). In holonomic mode
+  // on the common chain (ElementSet::hitched_chain) the step swaps it with chain_sincos_prev,
+  // which then holds q_k's: the corrections build mu(q_k)'s rows from them (16 bytes a body
+  // read, not mu's 88, and no mu written by the sweep).
+  Vector chain_sincos, chain_sincos_prev;
   // The diagnostics of the state the last fused step produced, computed by its sweeps;
   // `q` is that state's q buffer (nullptr when invalid). Read through diagnose_step().
   struct StepDiagnostics {
@@ -131,6 +134,10 @@ class alignas(128) Workspace {
   }
   // Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
   bool sincos_hold(ConstVecRef q) const;
+  // ... and C(q) is factorised (one comparison of q).
+  bool chain_factor_holds(ConstVecRef q) const { return factor_valid_ && sincos_hold(q); }
+  // chain_sincos now holds sin/cos of the q of the one-form cache (computed by the caller).
+  void sincos_computed_for_key() { sincos_valid_ = key_valid_; }
   // The Status and message of a failed factorisation (as factorize() reports it).
   Status report_factor_failure(sparse::FactorStatus status);
 
