@@ -133,11 +133,10 @@ bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, lon
   // The default tolerance (o.tolerance = 0) gives way to the floor; one the user set does not.
   const bool floored = o.mode == RestartMode::Auto && !(o.tolerance > 0.0);
   double tolerance = std::max(o.tolerance_for(h), floored ? 2.0 * w.floor : 0.0);
-  if (floored && w.after_restart && now == w.last_step + 1 && a > tolerance) {
+  if (floored && w.last_amplitude < 0.0 && now == w.last_step + 1 && a > tolerance) {
     w.floor = a;  // a restart one step ago could not bring it lower (ModeWatch::floor)
     tolerance = 2.0 * a;
   }
-  w.after_restart = false;
   const bool restart = o.mode == RestartMode::Auto && !(a <= tolerance);
   if (o.mode == RestartMode::Auto) {
     if (!(a <= tolerance)) {
@@ -164,8 +163,7 @@ bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, lon
 
 void plan_after_restart(const RestartOptions& o, ModeWatch& w, long now) {
   w.last_step = now;
-  w.last_amplitude = 0.0;
-  w.after_restart = true;
+  w.last_amplitude = -1.0;  // a restart (a measurement's amplitude is never negative)
   if (o.mode == RestartMode::Auto) w.next_step = now + 1;
 }
 
