@@ -5,7 +5,7 @@
 //   machine_speedup  the same for the compute-only loop (what this shared machine gives now)
 //   fraction         speedup / machine_speedup (target >= 0.9)
 // BatchedSleighStep reports the per-step cost of a batched single sleigh against the
-// hand-written scalar sleigh step (scalar_sleigh.hpp) measured in the same run (target <= 3).
+// hand-written scalar sleigh step (scalar_sleigh.hpp) measured in the same run (target <= 2, issue 12).
 #include <nonholo/batch.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>

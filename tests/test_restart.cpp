@@ -407,6 +407,8 @@ TEST(AutoRestart, AFloorAfterARestartRaisesOnlyTheDefaultTolerance) {
   plan_after_restart(o, w, 10);
   EXPECT_FALSE(plan_after_measurement(o, h, w, 11, 3 * tol)) << "the floor itself";
   EXPECT_EQ(w.floor, 3 * tol);
+  EXPECT_FALSE(plan_after_measurement(o, h, w, w.last_step + 1, 3.3 * tol));
+  EXPECT_EQ(w.next_step - w.last_step, 6) << "growth 1.1 from 3.3 to twice the floor: log(6/3.3)/log(1.1)";
   EXPECT_FALSE(plan_after_measurement(o, h, w, w.next_step, 5.9 * tol));
   EXPECT_TRUE(plan_after_measurement(o, h, w, w.next_step, 6.1 * tol));
   const long now = w.last_step;

@@ -151,8 +151,11 @@ bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, lon
         const double r = a / w.last_amplitude;
         growth = std::max(1.0, k == 1 ? r : std::pow(r, 1.0 / static_cast<double>(k)));
       }
+      // Towards half the tolerance; above a floor towards the tolerance itself, twice the floor:
+      // half of it is the floor, which round-off reaches at once (each step was measured).
+      const double target = floored && w.floor > 0.0 ? tolerance : 0.5 * tolerance;
       if (growth > 1.0)
-        interval = std::min(interval, static_cast<long>(std::log(0.5 * tolerance / a) / std::log(growth)));
+        interval = std::min(interval, static_cast<long>(std::log(target / a) / std::log(growth)));
     }
   }
   w.next_step = now + std::max(1L, interval);
