@@ -43,6 +43,7 @@ struct Case {
 const std::vector<Case> kCases{
     {"sleigh", {}},
     {"sleigh_chain", {"bodies=1"}},
+    {"sleigh_chain", {"bodies=2"}},  // kd = 2: the general holonomic passes
     {"sleigh_chain", {"bodies=40"}},
     {"sleigh_chain", {"bodies=40", "k=3"}},                // springs: forces at t_{k+1} one body ahead
     {"sleigh_chain", {"bodies=40", "hitched=0", "k=2"}},  // C diagonal (kd = 0)
