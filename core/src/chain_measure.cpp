@@ -20,21 +20,6 @@
 namespace nonholo::detail {
 namespace {
 
-// The bias (d/dt mu) v of group g's rows from sin/cos (sc: body b, sn: body b+1) and the
-// angular velocities of b and b+1 (knife edge: w (c x' + s y'); hitch x: d c w^2 + f c' w'^2;
-// hitch y: the same with sines), as chain_bias_from_sincos.
-inline void group_bias(const ChainBody& cb, const double* sc, const double* sn, const double* v,
-                       const double* vn, double* out) {
-  int r = 0;
-  const double s = sc[0], c = sc[1], w = v[2];
-  if (cb.flags & kChainKnife) out[r++] = w * (c * v[0] + s * v[1]);
-  if (cb.flags & kChainHitch) {
-    const double wn = vn[2];
-    out[r++] = cb.d * c * w * w + cb.f * sn[1] * wn * wn;
-    out[r++] = cb.d * s * w * w + cb.f * sn[0] * wn * wn;
-  }
-}
-
 template <int KD>
 Status measure(const Model& model, Workspace& ws, const double* p, const double* lambda, double h, bool gap_offset,
                double& amplitude) {

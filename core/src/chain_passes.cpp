@@ -68,22 +68,14 @@ sparse::FactorStatus factorize_chain(const Model& model, Workspace& ws, double m
 }
 
 void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef qdot, VecRef bias) {
-  // Knife edge: w (c x' + s y'); hitch x: d c w^2 + f c' w'^2; hitch y: the same with sines.
   const ElementSet& set = *model.element_set();
   const int n_bodies = static_cast<int>(set.chain.size());
   const double* sc = ws.chain_sincos.data();
   const double* v = qdot.data();
   double* out = bias.data();
-  int r = 0;
-  for (int b = 0; b < n_bodies; ++b) {
-    const ChainBody& cb = set.chain[b];
-    const double s = sc[2 * b], c = sc[2 * b + 1], w = v[3 * b + 2];
-    if (cb.flags & kChainKnife) out[r++] = w * (c * v[3 * b] + s * v[3 * b + 1]);
-    if (cb.flags & kChainHitch) {
-      const double sn = sc[2 * b + 2], cn = sc[2 * b + 3], wn = v[3 * b + 5];
-      out[r++] = cb.d * c * w * w + cb.f * cn * wn * wn;
-      out[r++] = cb.d * s * w * w + cb.f * sn * wn * wn;
-    }
+  for (int b = 0, r = 0; b < n_bodies; ++b) {
+    const int next = b + 1 < n_bodies ? b + 1 : b;
+    r += group_bias(set.chain[b], sc + 2 * b, sc + 2 * next, v + 3 * b, v + 3 * next, out + r);
   }
 }
 

@@ -94,6 +94,22 @@ inline void group_band_row(const Group& g, int j, int first, const Group* prev, 
   a[kd] = dot3(uw, g.u[j]) + dot3w(g.v[j], wn, g.v[j]);
 }
 
+// The bias (d/dt mu) v of body b's group from sin/cos (sc: body b, sn: body b+1) and the
+// velocities of b and b+1 (knife edge: w (c x' + s y'); hitch x: d c w^2 + f c' w'^2; hitch y:
+// the same with sines); returns the number of rows.
+inline int group_bias(const ChainBody& cb, const double* sc, const double* sn, const double* v, const double* vn,
+                      double* out) {
+  int r = 0;
+  const double s = sc[0], c = sc[1], w = v[2];
+  if (cb.flags & kChainKnife) out[r++] = w * (c * v[0] + s * v[1]);
+  if (cb.flags & kChainHitch) {
+    const double wn = vn[2];
+    out[r++] = cb.d * c * w * w + cb.f * sn[1] * wn * wn;
+    out[r++] = cb.d * s * w * w + cb.f * sn[0] * wn * wn;
+  }
+  return r;
+}
+
 // sin and cos of one angle in one call (glibc's sincos: about half the cost of both).
 inline void sin_cos(double x, double* out) {
 #if defined(__GLIBC__)

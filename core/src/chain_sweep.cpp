@@ -451,7 +451,7 @@ Status chain_sweep(const Model& model, Workspace& ws, const State& st, const Rat
   if (knife_sweep(model, ws, kicked))
     return model.has_applied_force() ? sweep_knives<true>(model, ws, st, o, h, t_next, check)
                                      : sweep_knives<false>(model, ws, st, o, h, t_next, check);
-  if (model.element_set()->hitched_chain && ws.banded()->bandwidth() == 4)
+  if (model.element_set()->hitched_chain)  // kd = 4
     return sweep_hitched(model, ws, st, o, h, t_next, kicked, check);
   switch (ws.banded()->bandwidth()) {  // chains: 4 (knife edges and hitches), 0 (knife edges only)
     case 0: return sweep<0>(model, ws, st, o, h, t_next, kicked, check);

@@ -44,8 +44,9 @@ struct ElementSet {
   // knife edges only), from the layout alone: the banded factor of a chain is set up without
   // C's pattern (Model::gram is not built for it).
   int chain_bandwidth = 0;
-  // The common chain: every body has a knife edge and a hitch to the next, the last only its
-  // knife edge (rows 3b, 3b+1, 3b+2 of body b; kd = 4): the sweep has closed forms for it.
+  // The common chain of three bodies or more: every body has a knife edge and a hitch to the
+  // next, the last only its knife edge (rows 3b, 3b+1, 3b+2 of body b; kd = 4): the sweep and
+  // the holonomic corrections have closed forms for it.
   bool hitched_chain = false;
   // Every body has one knife edge and nothing joins their rows (C is diagonal; springs and
   // thrusts allowed): the step is one sweep (the single sleigh, the spring chain).

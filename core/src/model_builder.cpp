@@ -396,7 +396,7 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
       hitch_before = (flags & detail::kChainHitch) ? last - 1 : -1;
       first += count;
     }
-    set->hitched_chain = chain && bodies >= 2;
+    set->hitched_chain = chain && bodies >= 3;  // two bodies have kd = 2: the generic sweeps
     for (int b = 0; set->hitched_chain && b < bodies; ++b)
       set->hitched_chain = set->chain[b].flags == (b + 1 < bodies ? detail::kChainKnife | detail::kChainHitch
                                                                    : detail::kChainKnife);

@@ -108,8 +108,7 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
   // (chain_passes.cpp), forward (gaps and forward substitution) and backward (back
   // substitution, correction, the next gaps); the last leaves sin/cos of q_{k+1} for the sweep.
   // Its corrections take mu(q_k)'s rows from sin/cos of q_k, moved to chain_sincos_prev.
-  // (kd = 4: three bodies or more; two bodies have kd = 2 and take the general passes.)
-  const bool chain = ws.fused() && model.element_set()->hitched_chain && ws.banded()->bandwidth() == 4;
+  const bool chain = ws.fused() && model.element_set()->hitched_chain;
   Status status = Status::Ok;
   if (!chain || !ws.chain_factor_holds(s.q)) {  // a fused step to q_k left both C(q_k) and them
     if ((status = ws.factorize_at(s.q, o.min_pivot_ratio)) != Status::Ok) return status;

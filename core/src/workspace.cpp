@@ -52,8 +52,7 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
     factor_ = sparse::make_factorization(backend, model.gram().pattern());
   if (factor_ && factor_->backend() == sparse::Backend::Banded) banded_ = static_cast<sparse::BandedLdlt*>(factor_.get());
   if (fused()) chain_sincos.setZero(2 * model.num_bodies());
-  if (fused() && model.element_set()->hitched_chain && banded_->bandwidth() == 4)
-    chain_sincos_prev.setZero(2 * model.num_bodies());
+  if (fused() && model.element_set()->hitched_chain) chain_sincos_prev.setZero(2 * model.num_bodies());
   // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
   if (factor_ && !factor_->values_in_place()) c_values.setZero(model.gram().pattern().nnz());
 }
