@@ -136,25 +136,14 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
                    "larger length units, or reduce the step size if the motion ran away",
                    size, s.t, floor, o.gap_tolerance_limit);
   const double tolerance = std::max(o.gap_tolerance, floor);
-  if (chain) {
-    for (int it = 0;; ++it) {
-      if (!std::isfinite(worst))
-        return ws.fail(Status::NonFiniteState, "hitch gap is %g after %d corrections", worst, it);
-      if (worst <= tolerance) {
-        ws.gap_iterations = it;
-        return Status::Ok;
-      }
-      if (it == o.max_gap_iterations) return gap_failure(model, ws, s, o, h, worst, it, tolerance);
-      if (it > 0) detail::chain_forward_substitute(ws, x);
-      worst = detail::chain_correct_backward(model, ws, x, h, scale, it == 0);
-    }
-  }
   const auto& rows = model.holonomic_rows();
   const int count = model.num_holonomic();
-  ws.gap_multiplier.setZero();
+  if (!chain) ws.gap_multiplier.setZero();  // the chain's first correction assigns it
   for (int it = 0;; ++it) {
-    model.gap(ws.q_next, ws.gap);
-    worst = ws.gap.lpNorm<Eigen::Infinity>();
+    if (!chain) {  // the chain's gaps came with its last pass
+      model.gap(ws.q_next, ws.gap);
+      worst = ws.gap.lpNorm<Eigen::Infinity>();
+    }
     if (!std::isfinite(worst))
       return ws.fail(Status::NonFiniteState, "hitch gap is %g after %d corrections", worst, it);
     if (worst <= tolerance) {
@@ -162,11 +151,16 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
       return Status::Ok;
     }
     if (it == o.max_gap_iterations) return gap_failure(model, ws, s, o, h, worst, it, tolerance);
+    if (chain) {
+      if (it > 0) detail::chain_forward_substitute(ws, x);
+      worst = detail::chain_correct_backward(model, ws, x, h, scale, it == 0);
+      continue;
+    }
     ws.rhs.setZero();
     for (int j = 0; j < count; ++j) ws.rhs[rows[j]] = scale * ws.gap[j];
-    if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
+    if ((status = ws.solve(ws.rhs.data(), x)) != Status::Ok) return status;
     ws.gap_multiplier += ws.scratch_m;
-    model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
+    model.mu_transpose_times(ws.mu_values.data(), x, ws.scratch_n.data());
     ws.p_half += (0.5 * h) * ws.scratch_n;
     model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
     ws.q_next += (0.5 * h * h) * ws.scratch_n2;
