@@ -125,6 +125,46 @@ TEST(ChainSweep, AgreesWithTheGeneralPathThroughCholmod) {
     }
 }
 
+// A chain whose bodies carry the same data is read from its first and last entries
+// (ElementSet::chain_uniform): a chain that differs from the uniform one in a single field of
+// a single body must not be taken for uniform. Each variant steps as the general path does.
+TEST(ChainSweep, AChainDifferingInOneBodyIsReadBodyByBody) {
+  const int n = 9;
+  for (int variant = 0; variant < 6; ++variant) {
+    ModelBuilder b;
+    auto odd = [&](int i) { return i == (variant == 4 ? n - 1 : 4); };  // the one body that differs
+    for (int i = 0; i < n; ++i) {
+      const std::string s = std::to_string(i);
+      b.add_planar_body({"x" + s, "y" + s, "theta" + s}, odd(i) && (variant == 0 || variant == 4) ? 1.7 : 1.0,
+                        odd(i) && variant == 1 ? 0.9 : 0.5);
+    }
+    for (int i = 0; i < n; ++i) {
+      b.add_knife_edge({i, odd(i) && variant == 2 ? 0.35 : 0.1});
+      if (i + 1 < n) b.add_hitch({i, i + 1, odd(i) && variant == 3 ? 0.8 : 0.5, odd(i) && variant == 5 ? 0.7 : 0.4});
+    }
+    Vector q = Vector::Zero(3 * n), v = Vector::Zero(3 * n);
+    for (int i = 0; i < n; ++i) q[3 * i] = -0.9 * i;  // hitches closed: 0.5 + 0.4 apart
+    if (variant == 3) for (int i = 5; i < n; ++i) q[3 * i] -= 0.3;
+    if (variant == 5) for (int i = 5; i < n; ++i) q[3 * i] -= 0.3;
+    v[0] = 1.0;
+    v[2] = 0.4;
+    const Model model = b.build();
+    for (HitchMode hitch : {HitchMode::OneForm, HitchMode::Holonomic}) {
+      Workspace fused(model), general(model, {Backend::CholmodNatural});
+      ASSERT_TRUE(fused.fused());
+      RattleOptions o;
+      o.hitch = hitch;
+      State a = start_from_velocity(model, general, 0.0, q, v), c = a;
+      for (int k = 0; k < 100; ++k) {
+        ASSERT_EQ(step(model, fused, a, o), Status::Ok) << fused.message();
+        ASSERT_EQ(step(model, general, c, o), Status::Ok) << general.message();
+      }
+      EXPECT_LE(relative(a.q, c.q), 1e-12) << variant << " " << to_string(hitch);
+      EXPECT_LE(relative(a.p, c.p), 1e-12) << variant << " " << to_string(hitch);
+    }
+  }
+}
+
 // The workspace caches mu(q), C(q) and sin/cos(q) between steps, and fills mu lazily after a
 // one-form step: switching hitch modes, restarting and diagnosing between steps must never
 // read a stale cache. Same trajectory as the general path through CHOLMOD.
@@ -203,9 +243,11 @@ TEST(ChainSweep, KnifeChainMeasuresTheModeAsTheGeneralPath) {
 // Every chain's measurement from the sweeps' data (chain_measure.cpp) against the general
 // path's (continuous_multiplier_at, parasitic_of through CHOLMOD) after one step from the same
 // state, in both hitch modes (holonomic: with the gap offset -dlambda/2), measured every step.
-// The amplitude is a small difference lambda~ - lambda_s, so it is compared to the round-off
-// of the multipliers themselves: relative to the same measure of mu^T lambda~,
-// (h/2) |mu^T lambda~|_{M^-1} / |p~|, they differ by at most 8 eps (measured; bound 1e-13).
+// The amplitude is a small difference lambda~ - lambda_s (the fused pass gets it from C d =
+// C lambda~ + bias, the general path from lambda_s), so it is compared to the round-off of the
+// multipliers themselves: relative to the same measure of mu^T lambda~, (h/2) |mu^T
+// lambda~|_{M^-1} / |p~|, they differ by eps sqrt(cond C) or so: 1e-16 (one body) to 1.7e-14
+// (two bodies) measured; bound 1e-13.
 TEST(ChainSweep, ChainsMeasureTheModeAsTheGeneralPath) {
   for (const Case& c : kCases)
     for (HitchMode hitch : {HitchMode::OneForm, HitchMode::Holonomic}) {

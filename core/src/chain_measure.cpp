@@ -1,13 +1,14 @@
 // The period-2 mode's measurement (restart.cpp's continuous_multiplier_at and parasitic_of)
-// for the state a fused chain step just produced, in two passes over the bodies instead of
-// some ten passes over mu, C and the state, which cost 1.6 fused steps at 10^5 bodies
-// (one-form chain measured at every step: 15.5 against 6.0 ms per step unmeasured).
+// for the state a fused chain step just produced, in one forward pass over the bodies instead
+// of some ten passes over mu, C and the state (1.6 fused steps at 10^5 bodies) or of a forward
+// and a backward pass (this file until the measurement cost a third of a holonomic step).
 //
-// forward, body b+1 entering: v = M^-1 p of it; group b's rows (from the sin/cos the sweep
-//   left) get the right-hand side -(bias + mu M^-1 f) and are forward-substituted;
-// backward, group g leaving: back substitution gives lambda_s; body g+1 then has all its
-//   multipliers: mu^T (lambda~ - lambda_s (+ dlambda/2)) on it and its share of the mode's
-//   and the momentum's norms.
+// With d = lambda~ - lambda_s (+ dlambda/2) and C(q) = L D L^T, which the sweep left
+// factorised: C lambda_s = -(bias + mu M^-1 f), so r := C d = C (lambda~ (+ dlambda/2)) + bias
+// + mu M^-1 f needs no solve, and the mode's norm |d|_C^2 = d^T C d = r^T C^-1 r = sum_r y_r^2
+// / D_r with y = L^-1 r, a forward substitution. Body b+1 entering: mu^T (lambda~ (+ dlambda/2))
+// + f on it (its own group's rows and group b's), times M^-1; then group b's rows of r are
+// complete and forward-substituted.
 #include <nonholo/rattle.hpp>
 
 #include <cmath>
@@ -24,78 +25,65 @@ template <int KD>
 Status measure(const Model& model, Workspace& ws, const double* p, const double* lambda, double h, bool gap_offset,
                double& amplitude) {
   const ElementSet& set = *model.element_set();
-  const ChainBody* body = set.chain.data();
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   sparse::BandedLdlt& band = *ws.banded();
+  const int kd = KD >= 0 ? KD : band.bandwidth();
   const double* sc = ws.chain_sincos.data();
   const double* fa = model.has_applied_force() ? ws.applied.data() : nullptr;
   const double* gm = ws.gap_multiplier.data();
-  double* v = ws.velocity.data();
-  double* ls = ws.lambda_s.data();
+  double* y = ws.scratch_m.data();
   auto next_sc = [&](int b) { return b + 1 < n_bodies ? sc + 2 * b + 2 : sc + 2 * b; };
+  auto x = [&](int r) { return gap_offset ? lambda[r] + 0.5 * gm[r] : lambda[r]; };
 
-  // Forward: rhs = -(bias + mu M^-1 f) row by row, forward-substituted into lambda_s.
-  for (int c = 0; c < 3; ++c) v[c] = (&body[0].wx)[c] * p[c];
-  int row = 0;
-  for (int b = 0; b < n_bodies; ++b) {
-    const ChainBody& cb = body[b];
-    if (b + 1 < n_bodies)
-      for (int c = 0; c < 3; ++c) v[3 * b + 3 + c] = (&body[b + 1].wx)[c] * p[3 * b + 3 + c];
-    Group g;
-    group_rows(cb, sc + 2 * b, next_sc(b), g, nullptr);
-    double bias[3];
-    group_bias(cb, sc + 2 * b, next_sc(b), v + 3 * b, b + 1 < n_bodies ? v + 3 * b + 3 : v + 3 * b, bias);
-    for (int j = 0; j < g.rows; ++j) {
-      double r = bias[j];
-      if (fa) {
-        const double* wn = b + 1 < n_bodies ? &body[b + 1].wx : &cb.wx;
-        for (int c = 0; c < 3; ++c) {
-          r += g.u[j][c] * (&cb.wx)[c] * fa[3 * b + c];
-          if (b + 1 < n_bodies) r += g.v[j][c] * wn[c] * fa[3 * b + 3 + c];
-        }
-      }
-      ls[row + j] = -r;
-      band.template forward_row<KD>(row + j, ls);
-    }
-    row += g.rows;
-  }
-
-  // Backward: lambda_s, then the mode mu^T (lambda~ - lambda_s) body by body.
-  double mode = 0.0, momentum = 0.0, finite = 0.0;
-  Group later;
-  int later_first = row;
-  auto finish_body = [&](int b, const Group& own, int own_first, const Group* before, int before_first) {
-    double g3[3] = {0.0, 0.0, 0.0};
-    auto add = [&](const double (*rows)[3], int count, int first) {
-      for (int j = 0; j < count; ++j) {
-        const int r = first + j;
-        const double d = lambda[r] - ls[r] + (gap_offset ? 0.5 * gm[r] : 0.0);
-        for (int c = 0; c < 3; ++c) g3[c] += rows[j][c] * d;
-      }
-    };
-    add(own.u, own.rows, own_first);
-    if (before) add(before->v, before->rows, before_first);
-    const ChainBody& cb = body[b];
-    for (int c = 0; c < 3; ++c) {
-      mode += (&cb.wx)[c] * g3[c] * g3[c];
-      momentum += p[3 * b + c] * v[3 * b + c];
+  Group groups[2];          // groups b and b+1, by parity
+  double z[2][3], v[2][3];  // M^-1 (mu^T x + f) and M^-1 p of bodies b and b+1, by parity
+  double mode = 0.0, momentum = 0.0;
+  // Body c: z and v from g = mu^T x on it (without f), and its share of |p|_{M^-1}^2.
+  auto enter = [&](int c, const double* g) {
+    const double* w = &body[c].wx;  // wx, wy, wt are consecutive
+    for (int k = 0; k < 3; ++k) {
+      const double pk = p[3 * c + k];
+      z[c & 1][k] = w[k] * (fa ? g[k] + fa[3 * c + k] : g[k]);
+      v[c & 1][k] = w[k] * pk;
+      momentum += pk * v[c & 1][k];
     }
   };
-  for (int b = n_bodies - 1; b >= 0; --b) {
-    Group g;
-    group_rows(body[b], sc + 2 * b, next_sc(b), g, nullptr);
-    const int first = later_first - g.rows;
-    for (int r = later_first - 1; r >= first; --r) {
-      band.template backward_row<KD>(r, ls);
-      finite += ls[r];
-    }
-    if (b + 1 < n_bodies) finish_body(b + 1, later, later_first, &g, first);
-    later = g;
-    later_first = first;
+  group_rows(body[0], sc, next_sc(0), groups[0], nullptr);
+  {
+    double g[3] = {0.0, 0.0, 0.0};
+    for (int j = 0; j < groups[0].rows; ++j)
+      for (int k = 0; k < 3; ++k) g[k] += groups[0].u[j][k] * x(j);
+    enter(0, g);
   }
-  finish_body(0, later, later_first, nullptr, 0);
+  int row = 0;
+  for (int b = 0; b < n_bodies; ++b) {
+    const Group& g = groups[b & 1];
+    const int next_row = row + g.rows;
+    const bool last = b + 1 == n_bodies;
+    if (!last) {  // body b+1 enters: its group's u rows and group b's v rows
+      Group& gn = groups[(b + 1) & 1];
+      group_rows(body[b + 1], sc + 2 * b + 2, next_sc(b + 1), gn, nullptr);
+      double mt[3] = {0.0, 0.0, 0.0};
+      for (int j = 0; j < gn.rows; ++j)
+        for (int k = 0; k < 3; ++k) mt[k] += gn.u[j][k] * x(next_row + j);
+      for (int j = 0; j < g.rows; ++j)
+        for (int k = 0; k < 3; ++k) mt[k] += g.v[j][k] * x(row + j);
+      enter(b + 1, mt);
+    }
+    const double* zn = last ? z[b & 1] : z[(b + 1) & 1];  // the last group's v rows are zero
+    double bias[3];
+    group_bias(body[b], sc + 2 * b, next_sc(b), v[b & 1], last ? v[b & 1] : v[(b + 1) & 1], bias);
+    for (int j = 0; j < g.rows; ++j) {
+      const int r = row + j;
+      y[r] = dot3(g.u[j], z[b & 1]) + dot3(g.v[j], zn) + bias[j];
+      band.template forward_row<KD>(r, y);
+      mode += y[r] * y[r] * band.row(r)[kd];  // the band's diagonal holds 1 / D
+    }
+    row = next_row;
+  }
 
-  if (!std::isfinite(finite))
+  if (!std::isfinite(mode))
     return ws.fail(Status::NonFiniteState,
                    "the continuous multiplier is not finite (the bias or the force is NaN or Inf): "
                    "check the model's bias and forces, or reduce the step size");

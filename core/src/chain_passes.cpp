@@ -12,13 +12,14 @@ namespace nonholo::detail {
 
 void chain_one_forms_from_sincos(const Model& model, Workspace& ws) {
   const ElementSet& set = *model.element_set();
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   const double* sc = ws.chain_sincos.data();
   double* mu = ws.mu_values.data();
   Group g;
   int at = 0;
   for (int b = 0; b < n_bodies; ++b)
-    at += group_rows(set.chain[b], sc + 2 * b, b + 1 < n_bodies ? sc + 2 * b + 2 : sc + 2 * b, g, mu + at);
+    at += group_rows(body[b], sc + 2 * b, b + 1 < n_bodies ? sc + 2 * b + 2 : sc + 2 * b, g, mu + at);
 }
 
 namespace {
@@ -26,17 +27,18 @@ namespace {
 template <int KD>
 sparse::FactorStatus factorize_rows(const ElementSet& set, sparse::BandedLdlt& band, const double* mu,
                                     double min_pivot_ratio) {
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   const int kd = KD >= 0 ? KD : band.bandwidth();
   Group groups[2];  // groups b and b-1, by parity of b
   int first_of[2] = {0, 0};
   int row = 0, value = 0;
   band.begin_rows();
   for (int b = 0; b < n_bodies; ++b) {
-    const ChainBody& cb = set.chain[b];
+    const ChainBody& cb = body[b];
     Group& g = groups[b & 1];
     value += group_from_values(cb, mu + value, g);
-    const double* wn = b + 1 < n_bodies ? &set.chain[b + 1].wx : &cb.wx;  // wx, wy, wt are consecutive
+    const double* wn = b + 1 < n_bodies ? &body[b + 1].wx : &cb.wx;  // wx, wy, wt are consecutive
     for (int j = 0; j < g.rows; ++j) {
       group_band_row(g, j, row, b > 0 ? &groups[(b + 1) & 1] : nullptr, first_of[(b + 1) & 1], &cb.wx, wn, kd,
                      band.row(row + j));
@@ -69,13 +71,14 @@ sparse::FactorStatus factorize_chain(const Model& model, Workspace& ws, double m
 
 void chain_bias_from_sincos(const Model& model, const Workspace& ws, ConstVecRef qdot, VecRef bias) {
   const ElementSet& set = *model.element_set();
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   const double* sc = ws.chain_sincos.data();
   const double* v = qdot.data();
   double* out = bias.data();
   for (int b = 0, r = 0; b < n_bodies; ++b) {
     const int next = b + 1 < n_bodies ? b + 1 : b;
-    r += group_bias(set.chain[b], sc + 2 * b, sc + 2 * next, v + 3 * b, v + 3 * next, out + r);
+    r += group_bias(body[b], sc + 2 * b, sc + 2 * next, v + 3 * b, v + 3 * next, out + r);
   }
 }
 
@@ -114,20 +117,34 @@ inline void track_worst(double gx, double gy, double& worst) {
 
 }  // namespace
 
-double chain_gap_forward(const Model& model, Workspace& ws, double scale, double* y, double& size) {
+double chain_gap_forward(const Model& model, Workspace& ws, const State& st, double h, double scale, double* y,
+                         double& size) {
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   const ElementSet& set = *model.element_set();
-  const ChainBody* body = set.chain.data();
-  const int n_bodies = static_cast<int>(set.chain.size());
-  const double* qn = ws.q_next.data();
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
+  const double *q = st.q.data(), *p = st.p.data(), *force = st.force.data();
+  double* qn = ws.q_next.data();
+  double* ph = ws.p_half.data();
   sparse::BandedLdlt& band = *ws.banded();
   ws.forget_sincos();  // they are q_{k+1}'s from here on
   double* sc = ws.chain_sincos.data();
   double worst = 0.0, largest = 0.0;
-  sin_cos(qn[2], sc);
+  const double half = 0.5 * h;
+  // Half kick with the forces at t_k and drift of body b, as rattle.cpp's kick_drift.
+  auto kick_drift = [&](int b) {
+    const double* w = &body[b].wx;  // wx, wy, wt are consecutive
+    for (int c = 0; c < 3; ++c) {
+      const int i = 3 * b + c;
+      ph[i] = p[i] + half * force[i];
+      qn[i] = q[i] + h * (w[c] * ph[i]);
+      largest = std::max(largest, std::abs(qn[i]));
+    }
+    sin_cos(qn[3 * b + 2], sc + 2 * b);
+  };
+  kick_drift(0);
   for (int b = 0; b + 1 < n_bodies; ++b) {
-    sin_cos(qn[3 * b + 5], sc + 2 * b + 2);
-    largest = std::max({largest, std::abs(qn[3 * b]), std::abs(qn[3 * b + 1]), std::abs(qn[3 * b + 2])});
+    kick_drift(b + 1);
     double gx, gy;
     hitch_gap(body[b], qn + 3 * b, sc + 2 * b, gx, gy);
     track_worst(gx, gy, worst);
@@ -142,7 +159,7 @@ double chain_gap_forward(const Model& model, Workspace& ws, double scale, double
   const int last = 3 * (n_bodies - 1);
   y[last] = 0.0;
   forward_hitched<2>(band, last, y);
-  size = std::max({largest, std::abs(qn[last]), std::abs(qn[last + 1]), std::abs(qn[last + 2])});
+  size = largest;
   return worst;
 }
 
@@ -161,8 +178,8 @@ void chain_forward_substitute(Workspace& ws, double* y) {
 double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale, bool first) {
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   const ElementSet& set = *model.element_set();
-  const ChainBody* body = set.chain.data();
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   sparse::BandedLdlt& band = *ws.banded();
   const int m = band.size();
   const double* so = ws.chain_sincos_prev.data();  // sin/cos of q_k: the rows of mu(q_k)

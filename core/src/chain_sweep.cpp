@@ -53,7 +53,7 @@ inline Status pivot_failure(Workspace& ws, sparse::BandedLdlt& band, double min_
 
 struct Forward {
   const ElementSet& set;
-  const ChainBody* body;
+  const ChainBodies body;
   const double *q, *p, *force;
   double *qn, *ph, *fa, *key, *sc;
   double *pn, *fn, *lam, *mu;  // p^ then p~_{k+1}; force_{k+1}; rhs, y, then lambda~; mu values
@@ -64,7 +64,7 @@ struct Forward {
   double potential_old = 0.0, potential_new = 0.0, check = 0.0;
 
   Forward(const Model& model, Workspace& ws, const State& st, double step, double t, bool was_kicked)
-      : set(*model.element_set()), body(set.chain.data()), q(st.q.data()), p(st.p.data()),
+      : set(*model.element_set()), body(set.chain_bodies()), q(st.q.data()), p(st.p.data()),
         force(st.force.data()), qn(ws.q_next.data()), ph(was_kicked ? ws.p_half.data() : ws.p_next.data()),
         fa(ws.applied.data()), key(ws.one_form_key()), sc(ws.chain_sincos.data()), pn(ws.p_next.data()),
         fn(ws.force_next.data()), lam(ws.lambda.data()), mu(ws.mu_values.data()), h(step), t_next(t),
@@ -141,8 +141,8 @@ template <int KD>
 Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h, double t_next,
              bool kicked, double& check) {
   const ElementSet& set = *model.element_set();
-  const ChainBody* body = set.chain.data();
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   const int m = model.num_one_forms();
   sparse::BandedLdlt& band = *ws.banded();
   const int kd = KD >= 0 ? KD : band.bandwidth();
@@ -260,8 +260,8 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
                      double t_next, bool kicked, double& check) {
   constexpr int KD = 4;
   const ElementSet& set = *model.element_set();
-  const ChainBody* body = set.chain.data();
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   sparse::BandedLdlt& band = *ws.banded();
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
@@ -403,8 +403,8 @@ template <bool forced>
 Status sweep_knives(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
                     double t_next, double& check) {
   const ElementSet& set = *model.element_set();
-  const ChainBody* body = set.chain.data();
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   sparse::BandedLdlt& band = *ws.banded();
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
 

@@ -58,10 +58,12 @@ void chain_sincos_of(const Model& model, ConstVecRef q, Vector& sincos);
 // Holonomic mode on the common chain (ElementSet::hitched_chain): the position iteration's
 // corrections C(q_k) dlambda = scale [g(q_{k+1}); 0] in two passes each, with C(q_k)
 // factorised in ws.banded() and sin/cos of q_k in ws.chain_sincos_prev.
-// chain_gap_forward: sin/cos of ws.q_next into ws.chain_sincos, the right-hand side (0 on the
-// knife rows) forward-substituted into y, max |q_next| into size; returns max |g| (NaN when a
-// gap is).
-double chain_gap_forward(const Model& model, Workspace& ws, double scale, double* y, double& size);
+// chain_gap_forward: the half kick and drift of st into ws.p_half and ws.q_next (rattle.cpp's
+// kick_drift, bit for bit), sin/cos of q_next into ws.chain_sincos, the right-hand side (0 on
+// the knife rows) forward-substituted into y, max |q_next| into size; returns max |g| (NaN
+// when a gap is).
+double chain_gap_forward(const Model& model, Workspace& ws, const State& st, double h, double scale, double* y,
+                         double& size);
 // The forward substitution alone, of a right-hand side chain_correct_backward left in y.
 void chain_forward_substitute(Workspace& ws, double* y);
 // Back substitution of x into dlambda (added to ws.gap_multiplier; assigned when `first`),
@@ -70,10 +72,10 @@ void chain_forward_substitute(Workspace& ws, double* y);
 // forward-substituted); returns its max |g|.
 double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale, bool first);
 
-// The period-2 mode's measurement at the state the last fused step produced (ws.chain_sincos
-// and C factorised are of its q; p and lambda its p~ and lambda~): lambda_s into ws.lambda_s,
-// M^-1 p into ws.velocity and the amplitude, as restart.cpp's continuous_multiplier_at and
-// parasitic_of give them, in two passes (chain_measure.cpp).
+// The period-2 mode's amplitude at the state the last fused step produced (ws.chain_sincos
+// and C factorised are of its q; p and lambda its p~ and lambda~), as restart.cpp's
+// continuous_multiplier_at and parasitic_of give it, to round-off, in one pass
+// (chain_measure.cpp). It does not compute lambda_s (a restart does); ws.scratch_m is used.
 Status chain_measure(const Model& model, Workspace& ws, const double* p, const double* lambda, double h,
                      bool gap_offset, double& amplitude);
 

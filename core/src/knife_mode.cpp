@@ -16,7 +16,8 @@ namespace nonholo::detail {
 bool knife_chain_parasitic(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRef lambda, double h,
                            double& amplitude) {
   const ElementSet& set = *model.element_set();
-  const int n_bodies = static_cast<int>(set.chain.size());
+  const ChainBodies body = set.chain_bodies();
+  const int n_bodies = body.size();
   sparse::BandedLdlt& band = *ws.banded();
   const bool forced = model.has_applied_force();
   const double* sc = ws.chain_sincos.data();
@@ -28,7 +29,7 @@ bool knife_chain_parasitic(const Model& model, Workspace& ws, ConstVecRef p, Con
   // Sums in coordinate order: for one body the order of Eigen's reductions in the general path.
   double sum = 0.0, mode = 0.0, momentum = 0.0;
   for (int b = 0; b < n_bodies; ++b) {
-    const ChainBody& cb = set.chain[b];
+    const ChainBody& cb = body[b];
     const double s = sc[2 * b], c = sc[2 * b + 1];
     const double* pb = pp + 3 * b;
     double* vb = v + 3 * b;

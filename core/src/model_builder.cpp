@@ -4,6 +4,7 @@
 #include <cmath>
 #include <algorithm>
 #include <cstdint>
+#include <cstring>
 #include <string_view>
 #include <sstream>
 #include <stdexcept>
@@ -12,6 +13,14 @@
 
 namespace nonholo {
 namespace {
+
+// Whether two chain bodies hold the same numbers bit for bit (-0.0 is not 0.0 here: the
+// passes must compute exactly what each body's own entry would give).
+bool same_bits(const detail::ChainBody& a, const detail::ChainBody& b) {
+  const double x[] = {a.wx, a.wy, a.wt, a.a, a.d, a.f, a.k, a.kr, a.krr};
+  const double y[] = {b.wx, b.wy, b.wt, b.a, b.d, b.f, b.k, b.kr, b.krr};
+  return a.flags == b.flags && std::memcmp(x, y, sizeof x) == 0;
+}
 
 std::string describe_body(int index, const std::vector<std::string>& names) {
   std::ostringstream os;
@@ -384,6 +393,8 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
       cb.krr += s.k * rest * rest;
     }
     if (!chain) set->chain.clear();
+    set->chain_uniform = chain && bodies >= 2;
+    for (int b = 1; set->chain_uniform && b + 1 < bodies; ++b) set->chain_uniform = same_bits(set->chain[b], set->chain[0]);
     set->knife_chain = chain;
     for (int b = 0; set->knife_chain && b < bodies; ++b) set->knife_chain = set->chain[b].flags == detail::kChainKnife;
     // Group b's rows all touch body b, and so does group b-1's hitch (its front): C couples

@@ -97,8 +97,8 @@ Status gap_failure(const Model& model, Workspace& ws, const State& s, const Ratt
                  worst, iterations, tolerance, s.t, std::abs(h));
 }
 
-// Holonomic mode. On entry ws.p_half and ws.q_next are the plain first half kick and drift;
-// on success g(q_next) = 0. Each correction solves C(q_k) dlambda = -(2/h^2) [g; 0] (hitch
+// Holonomic mode. On entry ws.p_half and ws.q_next are the plain first half kick and drift
+// (the common chain's first gap pass computes them); on success g(q_next) = 0. Each correction solves C(q_k) dlambda = -(2/h^2) [g; 0] (hitch
 // rows get -g, the other rows 0) and applies p_half += (h/2) mu_k^T dlambda, which moves
 // q_next by (h^2/2) M^-1 mu_k^T dlambda: mu_k of that move is -g on the hitch rows (Newton
 // with the Jacobian frozen at q_k, converging at a rate O(h |thetadot|)) and 0 on the other
@@ -125,7 +125,7 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
   double* x = ws.scratch_m.data();
   double size = 0.0, worst = 0.0;
   if (chain)
-    worst = detail::chain_gap_forward(model, ws, scale, x, size);
+    worst = detail::chain_gap_forward(model, ws, s, h, scale, x, size);
   else
     size = ws.q_next.lpNorm<Eigen::Infinity>();
   const double floor = 16.0 * std::numeric_limits<double>::epsilon() * size;
@@ -200,7 +200,7 @@ void kick_drift(const sparse::BlockDiagonal& minv, double h, const double* q, co
 // After the step's candidate state at t_{k+1} is complete (ws.q_next, p_next, lambda,
 // force_next, applied, C(q_{k+1}) factorised): measure the parasitic amplitude when it is
 // due, restart when options ask, and plan the next measurement in `watch`. `fused`: the step
-// was a chain sweep, measured in two passes from its data (chain_measure.cpp); `knives`: a
+// was a chain sweep, measured in one pass from its data (chain_measure.cpp); `knives`: a
 // knife_sweep, measured in one (knife_mode.cpp).
 Status control_mode(const Model& model, Workspace& ws, const State& s, const RestartOptions& o, double h,
                     ModeWatch& watch, bool fused, bool knives) {
@@ -219,7 +219,7 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
   bool multiplier = false, measured = false;
   if (measure && knives) {
     measured = detail::knife_chain_parasitic(model, ws, ws.p_next, ws.lambda, h, ws.parasitic);
-  } else if (measure && fused) {  // the sweeps just left sin/cos and C of q_{k+1}: two passes
+  } else if (measure && fused) {  // the sweeps just left sin/cos and C of q_{k+1}: one pass
     if ((status = detail::chain_measure(model, ws, ws.p_next.data(), ws.lambda.data(), h, gap_offset,
                                         ws.parasitic)) != Status::Ok)
       return status;
@@ -264,8 +264,8 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
   double check = 0.0;  // NaN or Inf anywhere in the new state makes this non-finite
   if (ws.fused()) {  // a chain of elements: two sweeps over the bodies (chain_sweep.cpp)
     const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
-    if (holonomic) {
-      kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws, false);
+    if (holonomic) {  // the common chain's gap pass kicks and drifts (chain_gap_forward)
+      if (!model.element_set()->hitched_chain) kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws, false);
       const Status status = enforce_gaps(model, ws, s, options, h);
       if (status != Status::Ok) return status;
     }
