@@ -7,7 +7,8 @@ NONHOLO_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 NONHOLO_BUILD="${NONHOLO_BUILD:-$NONHOLO_ROOT/build}"
 
 packages=(g++ make cmake libeigen3-dev libsuitesparse-dev libgtest-dev libgmock-dev
-          libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev nlohmann-json3-dev)
+          libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev nlohmann-json3-dev
+          python3-dev python3-numpy pybind11-dev python3-pytest)
 
 # Installs the given Debian packages that are missing (apt-get update once per shell).
 nonholo_require() {

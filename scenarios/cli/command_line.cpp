@@ -23,6 +23,8 @@ constexpr int kInterruptedExit = 130;
 namespace {
 
 constexpr const char* kCommands = "run, batch, list, wp";
+constexpr const char* kRunHelp = "integrate one scene and print a summary line";
+constexpr const char* kBatchHelp = "integrate many trajectories of one scene in parallel";
 
 std::string format(double x) {
   std::ostringstream os;
@@ -126,6 +128,44 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   run.hitch = hitch_mode_from_string(o.hitch);
 }
 
+// The options of the run and batch commands, on their subcommands.
+void add_run_command(CLI::App* cmd, RunOptions& run) {
+  add_run_options(cmd, run);
+  cmd->add_option("--out", run.config.csv_path, "write the trajectory to this CSV file");
+  cmd->add_option("--every", run.config.every, "write every K-th step to the CSV (default 1)");
+}
+
+void add_batch_command(CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch) {
+  add_run_options(cmd, batch_run);
+  cmd->add_option("--count", batch.count, "number of trajectories")->required();
+  cmd->add_option("--threads", batch.threads, "threads (default: all cores)");
+  cmd->add_option("--vary", batch.vary, "draw a parameter per trajectory, NAME=LO:HI (repeatable)")
+      ->take_all()
+      ->allow_extra_args(false);
+  cmd->add_option("--seed", batch.seed, "seed of the --vary draws (default 1)");
+  cmd->add_option("--out", batch.out, "write one row per trajectory to this CSV file");
+}
+
+void finish_batch_command(const CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch) {
+  finish_run_options(cmd, batch_run);
+  if (cmd->count("--threads") && batch.threads < 1)
+    throw std::invalid_argument("--threads " + std::to_string(batch.threads) + ": must be at least 1");
+  check_batch_size(cmd, batch);
+  batch.run = batch_run.config;
+}
+
+// Parses `nonholo <command> args...` with an app that has that command only; CLI11's own
+// errors (an unknown option, a missing value) become std::invalid_argument with its message.
+void parse_command(CLI::App& app, const std::string& command, const std::vector<std::string>& args) {
+  std::vector<const char*> argv{"nonholo", command.c_str()};
+  for (const auto& a : args) argv.push_back(a.c_str());
+  try {
+    app.parse(static_cast<int>(argv.size()), argv.data());
+  } catch (const CLI::ParseError& e) {
+    throw std::invalid_argument(e.what());
+  }
+}
+
 void list_scenes(std::ostream& out) {
   for (const auto& info : scene_catalogue()) {
     out << info.name << ": " << info.description << " (dt " << info.default_dt << ", t_end "
@@ -141,22 +181,13 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   app.require_subcommand(1);
 
   RunOptions run;
-  auto* run_cmd = app.add_subcommand("run", "integrate one scene and print a summary line");
-  add_run_options(run_cmd, run);
-  run_cmd->add_option("--out", run.config.csv_path, "write the trajectory to this CSV file");
-  run_cmd->add_option("--every", run.config.every, "write every K-th step to the CSV (default 1)");
+  auto* run_cmd = app.add_subcommand("run", kRunHelp);
+  add_run_command(run_cmd, run);
 
   RunOptions batch_run;
   BatchConfig batch;
-  auto* batch_cmd = app.add_subcommand("batch", "integrate many trajectories of one scene in parallel");
-  add_run_options(batch_cmd, batch_run);
-  batch_cmd->add_option("--count", batch.count, "number of trajectories")->required();
-  batch_cmd->add_option("--threads", batch.threads, "threads (default: all cores)");
-  batch_cmd->add_option("--vary", batch.vary, "draw a parameter per trajectory, NAME=LO:HI (repeatable)")
-      ->take_all()
-      ->allow_extra_args(false);
-  batch_cmd->add_option("--seed", batch.seed, "seed of the --vary draws (default 1)");
-  batch_cmd->add_option("--out", batch.out, "write one row per trajectory to this CSV file");
+  auto* batch_cmd = app.add_subcommand("batch", kBatchHelp);
+  add_batch_command(batch_cmd, batch_run, batch);
 
   auto* list_cmd = app.add_subcommand("list", "the scenes with their parameters and defaults");
 
@@ -191,11 +222,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       return 0;
     }
     if (batch_cmd->parsed()) {
-      finish_run_options(batch_cmd, batch_run);
-      if (batch_cmd->count("--threads") && batch.threads < 1)
-        throw std::invalid_argument("--threads " + std::to_string(batch.threads) + ": must be at least 1");
-      check_batch_size(batch_cmd, batch);
-      batch.run = batch_run.config;
+      finish_batch_command(batch_cmd, batch_run, batch);
       InterruptScope on_ctrl_c;  // Ctrl-C: finish the rows, print the summary, exit 130
       const BatchResult result = run_batch(batch);
       out << result.line() << std::endl;
@@ -221,6 +248,27 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     return 1;
   }
   return 0;
+}
+
+RunConfig parse_run_arguments(const std::vector<std::string>& args) {
+  CLI::App app;
+  RunOptions run;
+  auto* cmd = app.add_subcommand("run", kRunHelp);
+  add_run_command(cmd, run);
+  parse_command(app, "run", args);
+  finish_run_options(cmd, run);
+  return run.config;
+}
+
+BatchConfig parse_batch_arguments(const std::vector<std::string>& args) {
+  CLI::App app;
+  RunOptions batch_run;
+  BatchConfig batch;
+  auto* cmd = app.add_subcommand("batch", kBatchHelp);
+  add_batch_command(cmd, batch_run, batch);
+  parse_command(app, "batch", args);
+  finish_batch_command(cmd, batch_run, batch);
+  return batch;
 }
 
 }  // namespace nonholo::scenarios

@@ -61,6 +61,7 @@ BatchResult run_batch(const BatchConfig& config) {
   if (config.threads < 0) throw std::invalid_argument("--threads " + std::to_string(config.threads) + ": must be positive");
   RunConfig run_config = config.run;
   run_config.csv_path.clear();
+  run_config.sink = nullptr;
   const PreparedRun prepared = prepare_run(run_config);
   Parameters base = prepared.info.defaults();
   for (const auto& a : config.run.assignments) base.assign(a);
@@ -156,39 +157,49 @@ BatchResult run_batch(const BatchConfig& config) {
   agg.ns_per_step = agg.steps > 0 ? loop_ns / static_cast<double>(agg.steps) : 0.0;
   agg.ns_per_body_step = agg.bodies > 0 ? agg.ns_per_step / agg.bodies : 0.0;
 
-  if (out.is_open()) {
-    // Header: trajectory, varied parameters, final time, body 0's coordinates, the errors. The
-    // names come from a trajectory that was set up (no model is built again just for them: a
-    // large one takes seconds); if none was, from the fixed parameters alone.
-    std::vector<std::string> names;
-    for (const Row& r : rows)
-      if (!r.names.empty()) {
-        names = r.names;
-        break;
-      }
-    if (names.empty()) {
-      names = {"q0", "q1", "q2"};
-      try {
-        names = prepared.info.build(base).model.coordinate_names();
-      } catch (const std::exception&) {  // the fixed parameters alone are not a valid scene
-      }
+  // The columns: varied parameters, final time, body 0's coordinates, the errors. The names
+  // come from a trajectory that was set up (no model is built again just for them: a large
+  // one takes seconds); if none was, from the fixed parameters alone.
+  std::vector<std::string> names;
+  for (const Row& r : rows)
+    if (!r.names.empty()) {
+      names = r.names;
+      break;
     }
-    const std::size_t shown = std::min<std::size_t>(3, names.size());
+  if (names.empty()) {
+    names = {"q0", "q1", "q2"};
+    try {
+      names = prepared.info.build(base).model.coordinate_names();
+    } catch (const std::exception&) {  // the fixed parameters alone are not a valid scene
+    }
+  }
+  const std::size_t shown = std::min<std::size_t>(3, names.size());
+  for (const auto& v : variations) result.varied.push_back(v.name);
+  result.shown.assign(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(shown));
+  result.rows.reserve(rows.size());
+  for (Row& r : rows) {
+    std::vector<double> q(shown, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t c = 0; c < shown && static_cast<Eigen::Index>(c) < r.final_q.size(); ++c)
+      q[c] = r.final_q[static_cast<Eigen::Index>(c)];
+    result.rows.push_back({std::move(r.values), std::move(q), std::move(r.summary)});
+  }
+
+  if (out.is_open()) {
     out << "trajectory";
-    for (const auto& v : variations) out << "," << v.name;
+    for (const auto& name : result.varied) out << "," << name;
     out << ",t_final";
-    for (std::size_t c = 0; c < shown; ++c) out << "," << names[c];
+    for (const auto& name : result.shown) out << "," << name;
     out << ",energy_rel_err_max,energy_post_rel_err_max,residual_max,gap_max,restarts,parasitic_max";
     if (agg.has_work) out << ",work,energy_balance_err_max";
     if (config.run.error_estimate) out << ",error_estimate";
     out << ",status\n";
-    for (std::size_t i = 0; i < rows.size(); ++i) {
-      const Row& r = rows[i];
+    for (std::size_t i = 0; i < result.rows.size(); ++i) {
+      const BatchResult::Trajectory& r = result.rows[i];
       const RunSummary& s = r.summary;
       out << i;
       for (double x : r.values) out << "," << number(x);
       out << "," << number(s.t_final);
-      for (std::size_t c = 0; c < shown; ++c) out << "," << (r.final_q.size() > 0 ? number(r.final_q[static_cast<Eigen::Index>(c)]) : "nan");
+      for (double x : r.final_q) out << "," << number(x);
       out << "," << number(s.energy_rel_err_max) << "," << number(s.energy_post_rel_err_max) << ","
           << number(s.residual_max) << "," << number(s.gap_max) << "," << s.restarts << ","
           << number(s.parasitic_max);

@@ -149,30 +149,61 @@ bool reference_method(const std::string& name) {
 
 }  // namespace
 
+std::vector<SummaryField> RunSummary::fields() const {
+  std::vector<SummaryField> f;
+  auto text = [&f](const char* key, const std::string& value) { f.push_back({key, SummaryField::Text, 0.0, 0, value}); };
+  auto number = [&f](const char* key, double value) { f.push_back({key, SummaryField::Number, value, 0, {}}); };
+  auto integer = [&f](const char* key, long value) { f.push_back({key, SummaryField::Integer, 0.0, value, {}}); };
+  text("scene", scene);
+  text("method", method);
+  text("hitch", hitch);
+  if (order > 0) integer("order", order);
+  if (!composition.empty()) text("composition", composition);
+  if (!restart.empty()) text("restart", restart);
+  integer("bodies", bodies);
+  integer("steps", steps);
+  number("dt", dt);
+  number("t_end", t_final);
+  number("wall_s", wall_s);
+  number("ns_per_step", ns_per_step);
+  number("ns_per_body_step", ns_per_body_step);
+  number("energy_rel_err_max", energy_rel_err_max);
+  if (has_work) {
+    number("energy_balance_err_max", energy_balance_err_max);
+    if (!std::isnan(work)) number("work", work);
+  } else {
+    number("energy_post_rel_err_max", energy_post_rel_err_max);
+  }
+  number("residual_max", residual_max);
+  number("gap_max", gap_max);
+  if (restarts >= 0) {
+    integer("restarts", restarts);
+    number("parasitic_max", parasitic_max);
+  }
+  if (has_momentum) number("momentum_drift_max", momentum_drift_max);
+  if (rhs_evaluations >= 0) integer("rhs_evals", rhs_evaluations);
+  if (factorizations >= 0) integer("factorizations", factorizations);
+  if (!std::isnan(error_estimate)) number("error_estimate", error_estimate);
+  if (!std::isnan(stability_ratio)) number("stability_ratio", stability_ratio);
+  text("backend", backend);
+  text("status", to_string(status));
+  return f;
+}
+
 std::string RunSummary::line() const {
   std::ostringstream os;
   os.precision(6);
-  os << "scene=" << scene << " method=" << method << " hitch=" << hitch;
-  if (order > 0) os << " order=" << order;
-  if (!composition.empty()) os << " composition=" << composition;
-  if (!restart.empty()) os << " restart=" << restart;
-  os << " bodies=" << bodies << " steps=" << steps << " dt=" << dt << " t_end=" << t_final << " wall_s=" << wall_s
-     << " ns_per_step=" << ns_per_step << " ns_per_body_step=" << ns_per_body_step
-     << " energy_rel_err_max=" << energy_rel_err_max;
-  if (has_work) {
-    os << " energy_balance_err_max=" << energy_balance_err_max;
-    if (!std::isnan(work)) os << " work=" << work;
-  } else {
-    os << " energy_post_rel_err_max=" << energy_post_rel_err_max;
+  const char* separator = "";
+  for (const SummaryField& field : fields()) {
+    os << separator << field.key << '=';
+    separator = " ";
+    if (field.kind == SummaryField::Number)
+      os << field.number;
+    else if (field.kind == SummaryField::Integer)
+      os << field.integer;
+    else
+      os << field.text;
   }
-  os << " residual_max=" << residual_max << " gap_max=" << gap_max;
-  if (restarts >= 0) os << " restarts=" << restarts << " parasitic_max=" << parasitic_max;
-  if (has_momentum) os << " momentum_drift_max=" << momentum_drift_max;
-  if (rhs_evaluations >= 0) os << " rhs_evals=" << rhs_evaluations;
-  if (factorizations >= 0) os << " factorizations=" << factorizations;
-  if (!std::isnan(error_estimate)) os << " error_estimate=" << error_estimate;
-  if (!std::isnan(stability_ratio)) os << " stability_ratio=" << stability_ratio;
-  os << " backend=" << backend << " status=" << to_string(status);
   return os.str();
 }
 
@@ -270,6 +301,8 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   if (!config.csv_path.empty()) {
     csv = std::make_unique<CsvWriter>(config.csv_path, model.coordinate_names());
   }
+  FrameSink* sink = config.sink;
+  if (sink) sink->begin(model.coordinate_names());
 
   RunSummary summary;
   summary.scene = info.name;
@@ -303,6 +336,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.residual_max = d0.residual;
   summary.gap_max = d0.gap;
   if (csv) csv->row(runner->t(), runner->q(), d0);
+  if (sink) sink->frame(runner->t(), runner->q(), d0);
   if (!finite(d0)) {
     summary.status = Status::NonFiniteState;
     summary.message = "the initial state is out of range: " + describe(d0) +
@@ -318,10 +352,12 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   const auto loop_start = Clock::now();
   for (long k = 1; k <= steps && summary.status == Status::Ok; ++k) {
     const double t_before = runner->t();
-    if (interrupt_requested()) {
+    const bool ctrl_c = interrupt_requested();
+    if (ctrl_c || (sink && sink->stop_requested())) {
       summary.status = Status::Interrupted;
-      summary.message = "interrupted (SIGINT) after step " + std::to_string(k - 1) + " at t = " +
-                        std::to_string(t_before) + "; the output holds every row up to there";
+      summary.message = std::string(ctrl_c ? "interrupted (SIGINT)" : "interrupted by the caller") + " after step " +
+                        std::to_string(k - 1) + " at t = " + std::to_string(t_before) +
+                        "; the output holds every row up to there";
       break;
     }
     if (k > 1 && (summary.status = stability.check(*runner, k - 1, summary.message)) != Status::Ok) break;
@@ -394,9 +430,10 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       }
       companion_s += seconds_since(companion_start);
     }
-    if (csv && output) {
+    if ((csv || sink) && output) {
       const auto out_start = Clock::now();
-      csv->row(runner->t(), runner->q(), d);
+      if (csv) csv->row(runner->t(), runner->q(), d);
+      if (sink) sink->frame(runner->t(), runner->q(), d);
       output_s += seconds_since(out_start);
     }
     if (progress && (k & 15) == 0) progress->update(k);  // it reads the clock: not every step
@@ -409,6 +446,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   }
   if (config.error_estimate) summary.error_estimate = run.companion.scale * difference;
   if (csv) csv->close();
+  if (sink) sink->end();
   summary.t_final = runner->t();
   summary.rhs_evaluations = runner->rhs_evaluations();
   summary.factorizations = runner->factorizations();

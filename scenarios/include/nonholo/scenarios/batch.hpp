@@ -29,6 +29,17 @@ struct BatchResult {
   long failed = 0;
   std::string first_failure;  // "trajectory i: ..." of the first failed one
   std::string line() const;   // the summary line
+
+  // What the CSV holds, one entry per trajectory in order: the varied parameters' values
+  // (named in `varied`), the first coordinates of the final state (named in `shown`, at most
+  // three: body 0's; NaN when the trajectory was not set up) and the trajectory's summary.
+  struct Trajectory {
+    std::vector<double> values;
+    std::vector<double> final_q;
+    RunSummary summary;
+  };
+  std::vector<std::string> varied, shown;
+  std::vector<Trajectory> rows;
 };
 
 // Throws std::invalid_argument on bad options (before integrating).

@@ -1,5 +1,6 @@
 #pragma once
 // `nonholo run`: integrate one scene, optionally write its trajectory as CSV, and summarise.
+#include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/sparse/factorization.hpp>
@@ -12,12 +13,26 @@
 
 namespace nonholo::scenarios {
 
+// Where a run's frames go besides the CSV (Python's arrays, say): begin() once with the
+// coordinate names, frame() at t_0 and at every `every`-th step and the last, end() after
+// the last frame, also when a step failed. Not owned by the run; called from its thread.
+class FrameSink {
+ public:
+  virtual ~FrameSink() = default;
+  virtual void begin(const std::vector<std::string>& coordinates) = 0;
+  virtual void frame(double t, ConstVecRef q, const Diagnostics& d) = 0;
+  virtual void end() {}
+  // Polled between steps: true ends the run with status=interrupted, as Ctrl-C does.
+  virtual bool stop_requested() { return false; }
+};
+
 struct RunConfig {
   std::string scene;
   std::vector<std::string> assignments;  // NAME=VALUE, applied in order
   double dt = 0.0;                       // 0: the scene's default
   double t_end = -1.0;                   // < 0: the scene's default
   std::string csv_path;                  // empty: no CSV
+  FrameSink* sink = nullptr;             // also gets the frames (run_scene only, not batch)
   long every = 1;                        // write every K-th step (and the last)
   sparse::Backend backend = sparse::Backend::Auto;
   HitchMode hitch = HitchMode::Holonomic;
@@ -32,6 +47,15 @@ struct RunConfig {
   bool error_estimate = false;
   bool project = false;  // reference methods: project onto the constraints after each step
   double tol = 1e-8;     // ARKODE methods: relative and absolute tolerance
+};
+
+// One key=value of the summary line, with its value unrounded (the line prints 6 digits).
+struct SummaryField {
+  std::string key;
+  enum Kind { Number, Integer, Text } kind;
+  double number;
+  long integer;
+  std::string text;
 };
 
 struct RunSummary {
@@ -77,8 +101,10 @@ struct RunSummary {
   bool has_momentum = false;
   double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|
 
-  // One line of space-separated key=value pairs.
+  // One line of space-separated key=value pairs: the fields below, numbers to 6 digits.
   std::string line() const;
+  // What the line shows, in its order (the keys present depend on the method and the model).
+  std::vector<SummaryField> fields() const;
 };
 
 // Throws std::invalid_argument (unknown scene or parameter, bad value, CSV not writable)

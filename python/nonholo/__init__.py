@@ -1,0 +1,199 @@
+"""nonholo: momentum- and energy-preserving integrators for nonholonomic systems.
+
+High level, as the command-line tool:
+    nonholo.run(scene_or_file, dt=..., t_end=..., set={...}, method=..., order=..., hitch=..., every=...)
+    nonholo.batch(scene_or_file, count=..., vary={...}, ...)
+    nonholo.scenes()
+Low level, the C++ library (ModelBuilder, Model, Workspace, RattleOptions, State, step, ...):
+see help(nonholo._core).
+"""
+import os as _os
+
+import numpy as _np
+
+from . import _core
+from ._core import *  # noqa: F401,F403  (the library's API)
+
+__all__ = [name for name in dir(_core) if not name.startswith("_")] + [
+    "run", "batch", "scenes", "RunResult", "BatchResult", "RunError"]
+
+
+class RunError(RuntimeError):
+    """A run or batch that did not end with status ok, raised on request (check=True).
+    The results up to the failure are in .result."""
+
+    def __init__(self, message, result):
+        super().__init__(message)
+        self.result = result
+
+
+class _Result:
+    """Results built from the dict the C++ returns: one attribute per slot."""
+
+    __slots__ = ()
+
+    def __init__(self, d):
+        for name in self.__slots__:
+            setattr(self, name, d[name])
+
+    @property
+    def status(self):
+        return self.summary["status"]
+
+
+class RunResult(_Result):
+    """What run() returns: the frames written (t_0, every `every`-th step and the last), as
+    the CLI's CSV holds them, and the CLI's summary.
+
+    t            (frames,) times
+    q            (frames, coordinates) configurations
+    coordinates  the coordinates' names (the CSV's header)
+    energy, energy_post, residual   (frames,) per-frame diagnostics
+    summary      the summary line as a dict, numbers unrounded; "status" is "ok" unless a step
+                 failed ("message" says why), "warning" what the CLI prints on stderr
+    line         the summary line exactly as `nonholo run` prints it
+    """
+
+    __slots__ = ("t", "q", "coordinates", "energy", "energy_post", "residual", "summary", "line")
+
+    def __repr__(self):
+        return "<nonholo.RunResult %s: %d frames x %d coordinates, status=%s>" % (
+            self.summary["scene"], self.t.shape[0], len(self.coordinates), self.status)
+
+
+class BatchResult(_Result):
+    """What batch() returns: one row per trajectory, as the CLI's batch CSV.
+
+    columns   dict of the CSV's columns (same names and order) as 1-D numpy arrays
+    messages  per trajectory: why it failed ("" when it did not)
+    summary   the summary line as a dict (trajectories, threads, failed, first_failure too)
+    line      the summary line exactly as `nonholo batch` prints it
+    """
+
+    __slots__ = ("columns", "messages", "summary", "line")
+
+    def __repr__(self):
+        return "<nonholo.BatchResult %s: %d trajectories, %d failed>" % (
+            self.summary["scene"], self.summary["trajectories"], self.summary["failed"])
+
+
+def _number(name, value):
+    """A number as the command line reads it, exactly (repr is the shortest round trip)."""
+    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, float, _np.integer, _np.floating)):
+        raise ValueError("%s: expected a number, got %r" % (name, value))
+    if isinstance(value, (int, _np.integer)):
+        return str(int(value))
+    return repr(float(value))
+
+
+def _integer(name, value):
+    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, _np.integer)):
+        raise ValueError("%s: expected an integer, got %r" % (name, value))
+    return str(int(value))
+
+
+def _assignments(name, values, form):
+    """--set / --vary: a dict {NAME: value} or an iterable of "NAME=..." strings."""
+    if values is None:
+        return []
+    if isinstance(values, dict):
+        return [form(str(k), v) for k, v in values.items()]
+    if isinstance(values, str):
+        return [values]
+    return [str(v) for v in values]
+
+
+def _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+                   monitor_every, composition, error_estimate, project, tol):
+    args = [_os.fspath(scene)]
+
+    def option(flag, value, form=_number):
+        if value is not None:
+            args.extend([flag, form(flag, value)])
+
+    option("--dt", dt)
+    option("--t-end", t_end)
+    text = lambda flag, value: str(value)  # noqa: E731
+    option("--method", method, text)
+    option("--order", order, _integer)
+    option("--hitch", hitch, text)
+    option("--backend", backend, text)
+    option("--restart", restart, lambda flag, v: v if isinstance(v, str) else _integer(flag, v))
+    option("--restart-tol", restart_tol)
+    option("--monitor-every", monitor_every, _integer)
+    option("--composition", composition, text)
+    option("--tol", tol)
+    if error_estimate:
+        args.append("--error-estimate")
+    if project:
+        args.append("--project")
+    for a in _assignments("--set", set, lambda k, v: "%s=%s" % (k, _number("--set " + k, v))):
+        args.extend(["--set", a])  # one value per --set, as the tool takes them
+    return args
+
+
+def _finish(result, d, check, what):
+    interrupt = d.get("interrupt")
+    if interrupt is not None:  # Ctrl-C during the run: raised, with the results so far
+        interrupt.result = result
+        raise interrupt
+    if check and result.status != "ok":
+        message = d["summary"].get("first_failure") or d["summary"]["message"]
+        raise RunError("nonholo %s: status=%s: %s" % (what, result.status, message), result)
+    return result
+
+
+def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=None, every=None,
+        backend=None, restart=None, restart_tol=None, monitor_every=None, composition=None,
+        error_estimate=False, project=False, tol=None, out=None, check=False):
+    """Integrates one scene (a built-in name or a scene file) as `nonholo run` does and
+    returns a RunResult with its frames and summary.
+
+    Every option is the command line's (None: the tool's default): dt, t_end, set (a dict of
+    scene parameters, or "NAME=VALUE" strings), method, order, hitch, every (keep every K-th
+    step and the last), backend, restart ("auto", 0 or K), restart_tol, monitor_every,
+    composition, error_estimate, project, tol; out also writes the CLI's CSV. Bad options raise
+    ValueError with the tool's message; a failed step ends the run early with
+    summary["status"] saying why (check=True raises RunError instead). Ctrl-C raises
+    KeyboardInterrupt with the frames so far in its .result.
+    """
+    args = _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+                          monitor_every, composition, error_estimate, project, tol)
+    if every is not None:
+        args.extend(["--every", _integer("--every", every)])
+    if out is not None:
+        args.extend(["--out", _os.fspath(out)])
+    d = _core._run(args)
+    return _finish(RunResult(d), d, check, "run")
+
+
+def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None, t_end=None, set=None,
+          method=None, order=None, hitch=None, backend=None, restart=None, restart_tol=None,
+          monitor_every=None, composition=None, error_estimate=False, project=False, tol=None,
+          check=False):
+    """Many trajectories of one scene in parallel, as `nonholo batch` does: count
+    trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
+    from seed, threads (default: all cores), out (the CLI's CSV) and run()'s options. Returns
+    a BatchResult; failed trajectories are reported in its columns["status"] and messages
+    (check=True raises RunError if any failed)."""
+    args = _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+                          monitor_every, composition, error_estimate, project, tol)
+    args.extend(["--count", _integer("--count", count)])
+    if threads is not None:
+        args.extend(["--threads", _integer("--threads", threads)])
+    if seed is not None:
+        args.extend(["--seed", _integer("--seed", seed)])
+    varies = _assignments("--vary", vary, lambda k, v: "%s=%s:%s" % (
+        k, _number("--vary " + k, v[0]), _number("--vary " + k, v[1])))
+    for a in varies:
+        args.extend(["--vary", a])
+    if out is not None:
+        args.extend(["--out", _os.fspath(out)])
+    d = _core._batch(args)
+    return _finish(BatchResult(d), d, check, "batch")
+
+
+def scenes():
+    """The built-in scenes: a list of dicts with name, description, dt, t_end (the defaults)
+    and parameters (each a dict with name, default and description)."""
+    return _core._scenes()

@@ -1,0 +1,153 @@
+"""nonholo.run / batch / scenes against the command-line tool (NONHOLO_CLI, set by CTest): the
+same numbers to the last digit, the same messages, the same failures."""
+import csv
+import os
+import signal
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+
+import nonholo
+
+CLI = os.environ.get("NONHOLO_CLI", "nonholo")
+
+
+def cli(*args):
+    return subprocess.run([CLI, *args], capture_output=True, text=True)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:]
+
+
+def without_timings(line):
+    """The summary line without what the clock measures."""
+    return " ".join(w for w in line.split() if not w.startswith(("wall_s=", "ns_per_step=", "ns_per_body_step=")))
+
+
+def test_run_gives_the_clis_csv_to_the_last_digit(tmp_path):
+    path = tmp_path / "train.csv"
+    args = ["wheeled_train", "--set", "bodies=7", "--t-end", "2", "--every", "3", "--out", str(path)]
+    done = cli("run", *args)
+    assert done.returncode == 0, done.stderr
+    r = nonholo.run("wheeled_train", set={"bodies": 7}, t_end=2, every=3)
+    header, rows = read_csv(path)
+    assert header == ["t"] + r.coordinates + ["energy", "energy_post", "residual"]
+    table = np.array([[float(x) for x in row] for row in rows])  # shortest round trip: exact
+    n = len(r.coordinates)
+    assert table.shape == (r.t.shape[0], n + 4)
+    assert np.array_equal(table[:, 0], r.t)
+    assert np.array_equal(table[:, 1:n + 1], r.q)
+    assert np.array_equal(table[:, n + 1], r.energy)
+    assert np.array_equal(table[:, n + 2], r.energy_post, equal_nan=True)
+    assert np.array_equal(table[:, n + 3], r.residual)
+    assert without_timings(r.line) == without_timings(done.stdout.strip())
+
+
+def test_arrays_have_the_documented_shapes_and_types():
+    r = nonholo.run("sleigh_chain", set={"bodies": 4}, t_end=1, every=10)
+    frames = 1 + 100 // 10  # t_0, every 10th step (the last among them)
+    assert r.t.shape == (frames,) and r.t.dtype == np.float64
+    assert r.q.shape == (frames, 12) and r.q.dtype == np.float64
+    for a in (r.energy, r.energy_post, r.residual):
+        assert a.shape == (frames,) and a.dtype == np.float64
+    assert r.coordinates[:3] == ["x0", "y0", "theta0"]
+    assert r.t[0] == 0.0 and r.t[-1] == pytest.approx(1.0, abs=1e-12)
+    s = r.summary
+    assert s["status"] == "ok" and s["steps"] == 100 and isinstance(s["steps"], int)
+    assert isinstance(s["energy_rel_err_max"], float) and s["bodies"] == 4
+    # The summary's numbers are the line's before rounding to 6 digits.
+    assert "energy_rel_err_max=%s" % format(s["energy_rel_err_max"], ".6g") in r.line
+
+
+@pytest.mark.parametrize("kwargs, cli_args", [
+    ({"dt": -1.0}, ["--dt", "-1.0"]),
+    ({"set": {"nope": 1}}, ["--set", "nope=1"]),
+    ({"tol": 1e-3}, ["--tol", "0.001"]),
+    ({"order": 3}, ["--order", "3"]),
+    ({"hitch": "rigid"}, ["--hitch", "rigid"]),
+    ({"restart": "sometimes"}, ["--restart", "sometimes"]),
+    ({"every": 0}, ["--every", "0"]),
+])
+def test_bad_options_raise_value_error_with_the_clis_message(kwargs, cli_args):
+    done = cli("run", "sleigh", *cli_args)
+    assert done.returncode == 1
+    message = done.stderr.strip()
+    assert message.startswith("nonholo run: ")
+    with pytest.raises(ValueError) as e:
+        nonholo.run("sleigh", **kwargs)
+    assert str(e.value) == message[len("nonholo run: "):]
+
+
+def test_python_values_that_are_not_numbers_are_refused():
+    with pytest.raises(ValueError, match="--dt: expected a number"):
+        nonholo.run("sleigh", dt="fast")
+    with pytest.raises(ValueError, match="--every: expected an integer"):
+        nonholo.run("sleigh", every=2.5)
+    with pytest.raises(ValueError, match="unknown scene 'nope'"):
+        nonholo.run("nope")
+
+
+JAM = {"phi0": 1.5607963267948966, "phi_dot0": 1, "v0": 0}  # the axles align after one step
+
+
+def test_a_failed_step_is_reported_in_the_summary_and_raised_on_request():
+    r = nonholo.run("snakeboard", dt=0.01, set=JAM)
+    assert r.status == "dependent-one-forms"
+    assert "step 1 from t = 0 failed" in r.summary["message"]
+    assert r.t.shape == (1,) and r.q.shape == (1, 5)  # the initial frame, kept
+    with pytest.raises(nonholo.RunError, match="status=dependent-one-forms") as e:
+        nonholo.run("snakeboard", dt=0.01, set=JAM, check=True)
+    assert e.value.result.t.shape == (1,)
+
+
+def test_batch_gives_the_clis_table(tmp_path):
+    path = tmp_path / "batch.csv"
+    # m drawn in [-0.5, 1.5]: some trajectories are refused at set-up (negative mass).
+    done = cli("batch", "sleigh", "--count", "12", "--vary", "m=-0.5:1.5", "--seed", "7", "--t-end", "1",
+               "--threads", "2", "--out", str(path))
+    assert done.returncode == 2, done.stderr
+    b = nonholo.batch("sleigh", count=12, vary={"m": (-0.5, 1.5)}, seed=7, t_end=1, threads=2)
+    header, rows = read_csv(path)
+    assert header == list(b.columns)
+    for j, name in enumerate(header):
+        column = b.columns[name]
+        assert column.shape == (12,)
+        if name == "status":
+            assert list(column) == [row[j] for row in rows]
+        else:
+            assert np.array_equal(column, np.array([float(row[j]) for row in rows]), equal_nan=True), name
+    failed = [i for i, s in enumerate(b.columns["status"]) if s != "ok"]
+    assert 0 < len(failed) < 12 and b.summary["failed"] == len(failed)
+    assert all(b.messages[i] for i in failed) and not any(b.messages[i] for i in range(12) if i not in failed)
+    assert without_timings(b.line) == without_timings(done.stdout.strip())
+    with pytest.raises(nonholo.RunError, match="trajectory"):
+        nonholo.batch("sleigh", count=12, vary={"m": (-0.5, 1.5)}, seed=7, t_end=1, check=True)
+
+
+def test_scenes_lists_what_nonholo_list_prints():
+    listed = cli("list").stdout
+    for scene in nonholo.scenes():
+        assert "%s: %s" % (scene["name"], scene["description"]) in listed
+        for p in scene["parameters"]:
+            assert "  %s = " % p["name"] in listed
+    assert [s["name"] for s in nonholo.scenes()][:2] == ["particle", "sleigh"]
+
+
+def test_ctrl_c_raises_keyboard_interrupt_with_the_frames_so_far():
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt) as e:
+            nonholo.run("sleigh_chain", set={"bodies": 2000}, t_end=1e4, every=100)
+    finally:
+        timer.cancel()
+    r = e.value.result
+    assert r.status == "interrupted"
+    assert "interrupted by the caller" in r.summary["message"]
+    assert 0 < r.summary["steps"] < 10**6
+    assert r.t.shape[0] == r.q.shape[0] >= 1
