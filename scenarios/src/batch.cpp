@@ -47,6 +47,35 @@ struct Row {
   std::string error;
 };
 
+// The batch's table as CSV (`nonholo batch --out`): one row per trajectory, in order.
+void write_batch_csv(std::ofstream& out, const std::string& path, const BatchResult& result, bool error_estimate) {
+  const bool has_work = result.aggregate.has_work;
+  out << "trajectory";
+  for (const auto& name : result.varied) out << "," << name;
+  out << ",t_final";
+  for (const auto& name : result.shown) out << "," << name;
+  out << ",energy_rel_err_max,energy_post_rel_err_max,residual_max,gap_max,restarts,parasitic_max";
+  if (has_work) out << ",work,energy_balance_err_max";
+  if (error_estimate) out << ",error_estimate";
+  out << ",status\n";
+  for (std::size_t i = 0; i < result.rows.size(); ++i) {
+    const BatchResult::Trajectory& r = result.rows[i];
+    const RunSummary& s = r.summary;
+    out << i;
+    for (double x : r.values) out << "," << number(x);
+    out << "," << number(s.t_final);
+    for (double x : r.final_q) out << "," << number(x);
+    out << "," << number(s.energy_rel_err_max) << "," << number(s.energy_post_rel_err_max) << ","
+        << number(s.residual_max) << "," << number(s.gap_max) << "," << s.restarts << ","
+        << number(s.parasitic_max);
+    if (has_work) out << "," << number(s.has_work ? s.work : NAN) << "," << number(s.energy_balance_err_max);
+    if (error_estimate) out << "," << number(s.error_estimate);
+    out << "," << to_string(s.status) << "\n";
+  }
+  out.close();
+  if (!out) throw std::runtime_error("error writing '" + path + "'");
+}
+
 }  // namespace
 
 std::string BatchResult::line() const {
@@ -184,32 +213,7 @@ BatchResult run_batch(const BatchConfig& config) {
     result.rows.push_back({std::move(r.values), std::move(q), std::move(r.summary)});
   }
 
-  if (out.is_open()) {
-    out << "trajectory";
-    for (const auto& name : result.varied) out << "," << name;
-    out << ",t_final";
-    for (const auto& name : result.shown) out << "," << name;
-    out << ",energy_rel_err_max,energy_post_rel_err_max,residual_max,gap_max,restarts,parasitic_max";
-    if (agg.has_work) out << ",work,energy_balance_err_max";
-    if (config.run.error_estimate) out << ",error_estimate";
-    out << ",status\n";
-    for (std::size_t i = 0; i < result.rows.size(); ++i) {
-      const BatchResult::Trajectory& r = result.rows[i];
-      const RunSummary& s = r.summary;
-      out << i;
-      for (double x : r.values) out << "," << number(x);
-      out << "," << number(s.t_final);
-      for (double x : r.final_q) out << "," << number(x);
-      out << "," << number(s.energy_rel_err_max) << "," << number(s.energy_post_rel_err_max) << ","
-          << number(s.residual_max) << "," << number(s.gap_max) << "," << s.restarts << ","
-          << number(s.parasitic_max);
-      if (agg.has_work) out << "," << number(s.has_work ? s.work : NAN) << "," << number(s.energy_balance_err_max);
-      if (config.run.error_estimate) out << "," << number(s.error_estimate);
-      out << "," << to_string(s.status) << "\n";
-    }
-    out.close();
-    if (!out) throw std::runtime_error("error writing '" + config.out + "'");
-  }
+  if (out.is_open()) write_batch_csv(out, config.out, result, config.run.error_estimate);
   agg.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
