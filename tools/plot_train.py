@@ -1,8 +1,8 @@
 #!/usr/bin/python3
-"""Draws a wheeled_train trajectory CSV (nonholo run wheeled_train --out FILE.csv): the whole
-train at a few times, and the paths of the lead and of every 10th body near the front.
+"""Draws a wheeled_train trajectory (nonholo run wheeled_train --out FILE.csv or FILE.h5): the
+whole train at a few times, and the paths of the lead and of every 10th body near the front.
 
-Usage: /usr/bin/python3 tools/plot_train.py FILE.csv OUT.png
+Usage: /usr/bin/python3 tools/plot_train.py FILE.csv|FILE.h5 OUT.png   (HDF5 needs python3-h5py)
 """
 import csv
 import sys
@@ -12,13 +12,23 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 
-def main():
-    if len(sys.argv) != 3:
-        sys.exit("usage: plot_train.py FILE.csv OUT.png")
-    with open(sys.argv[1]) as f:
+def read(path):
+    """The CSV's header and rows (t, the coordinates, ...), from either format."""
+    if path.endswith((".h5", ".hdf5")):
+        import h5py
+        with h5py.File(path, "r") as f:
+            names = [c.decode() if isinstance(c, bytes) else c for c in f["coordinates"][:]]
+            return ["t"] + names, [[t, *q] for t, q in zip(f["t"][:].tolist(), f["q"][:].tolist())]
+    with open(path) as f:
         reader = csv.reader(f)
         header = next(reader)
-        rows = [[float(x) for x in row] for row in reader]
+        return header, [[float(x) for x in row] for row in reader]
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit("usage: plot_train.py FILE.csv|FILE.h5 OUT.png")
+    header, rows = read(sys.argv[1])
     if not rows:
         sys.exit("plot_train.py: %s has no rows" % sys.argv[1])
     bodies = sum(1 for name in header if name.startswith("x") and name[1:].isdigit())

@@ -40,7 +40,7 @@ py::array_t<double> take(std::vector<double>&& data, std::vector<py::ssize_t> sh
 class ArraySink : public scenarios::FrameSink {
  public:
   void begin(const std::vector<std::string>& coordinates) override { names = coordinates; }
-  void frame(double time, ConstVecRef q_now, const Diagnostics& d) override {
+  void frame(double time, ConstVecRef q_now, ConstVecRef, const Diagnostics& d) override {
     t.push_back(time);
     q.insert(q.end(), q_now.data(), q_now.data() + q_now.size());
     energy.push_back(d.energy);

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "hdf5_output.hpp"
 #include "random.hpp"
 #include "run_internal.hpp"
 
@@ -213,7 +214,14 @@ BatchResult run_batch(const BatchConfig& config) {
     result.rows.push_back({std::move(r.values), std::move(q), std::move(r.summary)});
   }
 
-  if (out.is_open()) write_batch_csv(out, config.out, result, config.run.error_estimate);
+  if (out.is_open()) {  // CSV, or HDF5 by the extension (hdf5_output.hpp)
+    if (is_hdf5_path(config.out)) {
+      out.close();  // it only checked that the path is writable, before integrating
+      write_batch_hdf5(config.out, config, prepared.info.name, result);
+    } else {
+      write_batch_csv(out, config.out, result, config.run.error_estimate);
+    }
+  }
   agg.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -2,6 +2,7 @@
 
 #include <nonholo/scenarios/scene_file.hpp>
 
+#include "hdf5_output.hpp"
 #include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_internal.hpp"
@@ -297,12 +298,18 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   double difference = 0.0;  // max over the output times of |q - q^|_inf
   std::string companion_failure;
 
+  // --out: CSV, or HDF5 by its extension (hdf5_output.hpp); the caller's sink gets the frames too.
   std::unique_ptr<CsvWriter> csv;
-  if (!config.csv_path.empty()) {
+  std::unique_ptr<Hdf5RunWriter> h5;
+  if (is_hdf5_path(config.csv_path))
+    h5 = std::make_unique<Hdf5RunWriter>(config.csv_path, config, info.name, params);
+  else if (!config.csv_path.empty())
     csv = std::make_unique<CsvWriter>(config.csv_path, model.coordinate_names());
-  }
-  FrameSink* sink = config.sink;
-  if (sink) sink->begin(model.coordinate_names());
+  std::vector<FrameSink*> sinks;
+  for (FrameSink* s : {static_cast<FrameSink*>(h5.get()), config.sink})
+    if (s) sinks.push_back(s);
+  FrameSink* const sink = config.sink;  // also polled for a stop
+  for (FrameSink* s : sinks) s->begin(model.coordinate_names());
 
   RunSummary summary;
   summary.scene = info.name;
@@ -336,7 +343,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.residual_max = d0.residual;
   summary.gap_max = d0.gap;
   if (csv) csv->row(runner->t(), runner->q(), d0);
-  if (sink) sink->frame(runner->t(), runner->q(), d0);
+  for (FrameSink* s : sinks) s->frame(runner->t(), runner->q(), runner->p(), d0);
   if (!finite(d0)) {
     summary.status = Status::NonFiniteState;
     summary.message = "the initial state is out of range: " + describe(d0) +
@@ -430,10 +437,10 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       }
       companion_s += seconds_since(companion_start);
     }
-    if ((csv || sink) && output) {
+    if ((csv || !sinks.empty()) && output) {
       const auto out_start = Clock::now();
       if (csv) csv->row(runner->t(), runner->q(), d);
-      if (sink) sink->frame(runner->t(), runner->q(), d);
+      for (FrameSink* s : sinks) s->frame(runner->t(), runner->q(), runner->p(), d);
       output_s += seconds_since(out_start);
     }
     if (progress && (k & 15) == 0) progress->update(k);  // it reads the clock: not every step
@@ -446,7 +453,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   }
   if (config.error_estimate) summary.error_estimate = run.companion.scale * difference;
   if (csv) csv->close();
-  if (sink) sink->end();
+  for (FrameSink* s : sinks) s->end();
   summary.t_final = runner->t();
   summary.rhs_evaluations = runner->rhs_evaluations();
   summary.factorizations = runner->factorizations();
@@ -468,6 +475,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   if (final_q) *final_q = runner->q();
+  if (h5) h5->finish(summary);  // the summary's attributes, then the file is closed
   return summary;
 }
 

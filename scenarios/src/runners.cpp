@@ -35,6 +35,7 @@ class ReflectionRunner final : public Runner {
     return d;
   }
   void momentum_maps(VecRef out) override { evaluate_momentum_maps(model_, state_, out); }
+  ConstVecRef p() override { return state_.p; }
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return ws_.backend_name(); }
   double parasitic() const override { return ws_.parasitic; }
@@ -89,6 +90,7 @@ class DlaRunner final : public Runner {
     const auto& maps = model_.momentum_maps();
     for (std::size_t i = 0; i < maps.size(); ++i) out[static_cast<Eigen::Index>(i)] = maps[i].map(state_.q, state_.p);
   }
+  ConstVecRef p() override { return state_.p; }
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return ws_.backend_name(); }
   long factorizations() const override { return ws_.factorizations; }
@@ -137,6 +139,7 @@ class ImplicitRunner final : public Runner {
     const auto& maps = model_.momentum_maps();
     for (std::size_t i = 0; i < maps.size(); ++i) out[static_cast<Eigen::Index>(i)] = maps[i].map(state_.q, state_.p);
   }
+  ConstVecRef p() override { return state_.p; }
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return "dense-implicit"; }
   double parasitic() const override { return ws_.parasitic; }
@@ -191,6 +194,10 @@ class ReferenceRunner final : public Runner {
     const auto& maps = model_.momentum_maps();
     for (std::size_t i = 0; i < maps.size(); ++i)
       out[static_cast<Eigen::Index>(i)] = maps[i].map(integrator_.q(), p_);
+  }
+  ConstVecRef p() override {
+    model_.mass().multiply(integrator_.v().data(), p_.data());
+    return p_;
   }
   std::string message() const override { return integrator_.message(); }
   std::string backend() const override {

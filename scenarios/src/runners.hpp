@@ -24,6 +24,9 @@ class Runner {
   virtual Diagnostics diagnostics() = 0;
   // J(q, p) of the model's momentum maps, p the momentum the method carries.
   virtual void momentum_maps(VecRef out) = 0;
+  // That momentum (reflection and DLA: p~ of the state; the implicit form: its state's p;
+  // the reference methods: M v), for the HDF5 output's /p.
+  virtual ConstVecRef p() = 0;
   virtual std::string message() const = 0;
   virtual std::string backend() const = 0;
   virtual long rhs_evaluations() const { return -1; }  // -1: not counted

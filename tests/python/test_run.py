@@ -1,32 +1,14 @@
 """nonholo.run / batch / scenes against the command-line tool (NONHOLO_CLI, set by CTest): the
 same numbers to the last digit, the same messages, the same failures."""
-import csv
 import os
 import signal
-import subprocess
 import threading
 
 import numpy as np
 import pytest
 
 import nonholo
-
-CLI = os.environ.get("NONHOLO_CLI", "nonholo")
-
-
-def cli(*args):
-    return subprocess.run([CLI, *args], capture_output=True, text=True)
-
-
-def read_csv(path):
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    return rows[0], rows[1:]
-
-
-def without_timings(line):
-    """The summary line without what the clock measures."""
-    return " ".join(w for w in line.split() if not w.startswith(("wall_s=", "ns_per_step=", "ns_per_body_step=")))
+from support import cli, read_csv, without_timings
 
 
 def test_run_gives_the_clis_csv_to_the_last_digit(tmp_path):

@@ -14,13 +14,14 @@
 namespace nonholo::scenarios {
 
 // Where a run's frames go besides the CSV (Python's arrays, say): begin() once with the
-// coordinate names, frame() at t_0 and at every `every`-th step and the last, end() after
-// the last frame, also when a step failed. Not owned by the run; called from its thread.
+// coordinate names, frame() at t_0 and at every `every`-th step and the last (p: the momentum
+// the method carries, p~ for the reflection method), end() after the last frame, also when a
+// step failed. Not owned by the run; called from its thread.
 class FrameSink {
  public:
   virtual ~FrameSink() = default;
   virtual void begin(const std::vector<std::string>& coordinates) = 0;
-  virtual void frame(double t, ConstVecRef q, const Diagnostics& d) = 0;
+  virtual void frame(double t, ConstVecRef q, ConstVecRef p, const Diagnostics& d) = 0;
   virtual void end() {}
   // Polled between steps: true ends the run with status=interrupted, as Ctrl-C does.
   virtual bool stop_requested() { return false; }

@@ -1,0 +1,32 @@
+// HDF5 output when nonholo was built without HDF5 (NONHOLO_WITH_HDF5=OFF): asking for it is a
+// clear error at set-up, never a CSV in disguise.
+#include "hdf5_output.hpp"
+
+#include <stdexcept>
+
+namespace nonholo::scenarios {
+
+namespace {
+[[noreturn]] void missing(const std::string& path) {
+  throw std::invalid_argument("--out " + path +
+                              ": this nonholo was built without HDF5 (install libhdf5-dev, Debian, and rebuild; "
+                              "or write CSV)");
+}
+}  // namespace
+
+struct Hdf5RunWriter::Impl {};
+
+Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig&, const std::string&, const Parameters&) {
+  missing(path);
+}
+Hdf5RunWriter::~Hdf5RunWriter() = default;
+void Hdf5RunWriter::begin(const std::vector<std::string>&) {}
+void Hdf5RunWriter::frame(double, ConstVecRef, ConstVecRef, const Diagnostics&) {}
+void Hdf5RunWriter::end() {}
+void Hdf5RunWriter::finish(const RunSummary&) {}
+
+void write_batch_hdf5(const std::string& path, const BatchConfig&, const std::string&, const BatchResult&) {
+  missing(path);
+}
+
+}  // namespace nonholo::scenarios

@@ -1,0 +1,359 @@
+// HDF5 output through the C API of Debian's serial HDF5 (hdf5_output.hpp). Every handle is
+// owned by an RAII holder; HDF5's own error printing is silenced inside our calls (a failure
+// becomes our exception with the path and what failed, not a stack dump on stderr).
+#include "hdf5_output.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <type_traits>
+#include <utility>
+
+namespace nonholo::scenarios {
+namespace {
+
+// An hid_t closed by its kind's close function.
+class Handle {
+ public:
+  Handle() = default;
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  Handle(Handle&& o) noexcept : id_(std::exchange(o.id_, H5I_INVALID_HID)), close_(o.close_) {}
+  Handle& operator=(Handle&& o) noexcept {
+    reset();
+    id_ = std::exchange(o.id_, H5I_INVALID_HID);
+    close_ = o.close_;
+    return *this;
+  }
+  ~Handle() { reset(); }
+  hid_t get() const { return id_; }
+  explicit operator bool() const { return id_ >= 0; }
+  // Closes now; false when HDF5 reports an error (a file whose last writes failed).
+  bool reset() {
+    bool ok = true;
+    if (id_ >= 0 && close_) ok = close_(id_) >= 0;
+    id_ = H5I_INVALID_HID;
+    return ok;
+  }
+
+ private:
+  hid_t id_ = H5I_INVALID_HID;
+  herr_t (*close_)(hid_t) = nullptr;
+};
+
+// HDF5 prints its error stack on stderr by default: off while we call it.
+class Quiet {
+ public:
+  Quiet() { H5Eget_auto2(H5E_DEFAULT, &func_, &data_), H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+  ~Quiet() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
+
+ private:
+  H5E_auto2_t func_ = nullptr;
+  void* data_ = nullptr;
+};
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw std::runtime_error("error writing '" + path + "': HDF5 could not " + what);
+}
+
+Handle check(hid_t id, herr_t (*close)(hid_t), const std::string& path, const std::string& what) {
+  if (id < 0) fail(path, what);
+  return Handle(id, close);
+}
+
+void check(herr_t status, const std::string& path, const std::string& what) {
+  if (status < 0) fail(path, what);
+}
+
+Handle create_file(const std::string& path) {
+  const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (f < 0) throw std::invalid_argument("cannot open '" + path + "' for writing (HDF5)");
+  return Handle(f, H5Fclose);
+}
+
+// A variable-length UTF-8 string type (what h5py reads as str).
+Handle string_type(const std::string& path) {
+  Handle t = check(H5Tcopy(H5T_C_S1), H5Tclose, path, "make a string type");
+  check(H5Tset_size(t.get(), H5T_VARIABLE), path, "make a string type");
+  check(H5Tset_cset(t.get(), H5T_CSET_UTF8), path, "make a string type");
+  return t;
+}
+
+void attribute(hid_t on, const std::string& path, const std::string& name, double value) {
+  Handle space = check(H5Screate(H5S_SCALAR), H5Sclose, path, "make a scalar space");
+  Handle a = check(H5Acreate2(on, name.c_str(), H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                   path, "create attribute " + name);
+  check(H5Awrite(a.get(), H5T_NATIVE_DOUBLE, &value), path, "write attribute " + name);
+}
+
+void attribute(hid_t on, const std::string& path, const std::string& name, long value) {
+  const std::int64_t v = value;
+  Handle space = check(H5Screate(H5S_SCALAR), H5Sclose, path, "make a scalar space");
+  Handle a = check(H5Acreate2(on, name.c_str(), H5T_STD_I64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+                   path, "create attribute " + name);
+  check(H5Awrite(a.get(), H5T_NATIVE_INT64, &v), path, "write attribute " + name);
+}
+
+void attribute(hid_t on, const std::string& path, const std::string& name, const std::string& value) {
+  Handle type = string_type(path);
+  Handle space = check(H5Screate(H5S_SCALAR), H5Sclose, path, "make a scalar space");
+  Handle a = check(H5Acreate2(on, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, path,
+                   "create attribute " + name);
+  const char* text = value.c_str();
+  check(H5Awrite(a.get(), type.get(), &text), path, "write attribute " + name);
+}
+
+Handle group(hid_t file, const std::string& path, const char* name) {
+  return check(H5Gcreate2(file, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, path,
+               std::string("create group ") + name);
+}
+
+// The run's options and the scene on the root, the scene's parameters on /parameters.
+void describe_run(hid_t file, const std::string& path, const RunConfig& c, const std::string& scene,
+                  const Parameters* params) {
+  attribute(file, path, "scene", scene);
+  attribute(file, path, "method", c.method);
+  attribute(file, path, "hitch", std::string(to_string(c.hitch)));
+  attribute(file, path, "backend", std::string(sparse::to_string(c.backend)));
+  attribute(file, path, "restart", c.restart);
+  attribute(file, path, "restart_tol", c.restart_tol);
+  attribute(file, path, "monitor_every", static_cast<long>(c.monitor_every));
+  attribute(file, path, "order", static_cast<long>(c.order));
+  attribute(file, path, "composition", c.composition);
+  attribute(file, path, "dt", c.dt);          // 0: the scene's (the summary has the one used)
+  attribute(file, path, "t_end", c.t_end);    // < 0: the scene's
+  attribute(file, path, "every", c.every);
+  attribute(file, path, "tol", c.tol);
+  attribute(file, path, "project", static_cast<long>(c.project));
+  attribute(file, path, "error_estimate", static_cast<long>(c.error_estimate));
+  if (!params) return;
+  Handle g = group(file, path, "parameters");
+  for (const auto& spec : params->specs()) attribute(g.get(), path, spec.name, (*params)[spec.name]);
+}
+
+void describe_summary(hid_t file, const std::string& path, const RunSummary& s, const char* name = "summary") {
+  Handle g = group(file, path, name);
+  for (const SummaryField& f : s.fields()) {
+    if (f.kind == SummaryField::Number)
+      attribute(g.get(), path, f.key, f.number);
+    else if (f.kind == SummaryField::Integer)
+      attribute(g.get(), path, f.key, f.integer);
+    else
+      attribute(g.get(), path, f.key, f.text);
+  }
+  attribute(g.get(), path, "message", s.message);
+  attribute(g.get(), path, "warning", s.warning);
+}
+
+// A dataset of `columns` columns (0: 1-D) that grows by rows: chunked (about 1 MB a chunk),
+// shuffled and deflated (level 1: the fast end, most of the gain on smooth data).
+class Growing {
+ public:
+  Growing() = default;
+  Growing(hid_t file, const std::string& path, const char* name, hsize_t columns, hsize_t chunk_rows)
+      : path_(&path), name_(name), columns_(columns) {
+    const int rank = columns > 0 ? 2 : 1;
+    const hsize_t dims[2] = {0, columns}, max[2] = {H5S_UNLIMITED, columns}, chunk[2] = {chunk_rows, columns};
+    Handle space = check(H5Screate_simple(rank, dims, max), H5Sclose, path, "make the space of " + name_);
+    Handle plist = check(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, path, "make a property list");
+    check(H5Pset_chunk(plist.get(), rank, chunk), path, "chunk " + name_);
+    check(H5Pset_shuffle(plist.get()), path, "shuffle " + name_);
+    check(H5Pset_deflate(plist.get(), 1), path, "compress " + name_);
+    data_ = check(H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, plist.get(), H5P_DEFAULT),
+                  H5Dclose, path, "create " + name_);
+  }
+  // Appends `count` rows from `values` (row-major).
+  void append(const double* values, hsize_t count) {
+    if (count == 0) return;
+    const int rank = columns_ > 0 ? 2 : 1;
+    const hsize_t size[2] = {rows_ + count, columns_};
+    check(H5Dset_extent(data_.get(), size), *path_, "extend " + name_);
+    Handle file_space = check(H5Dget_space(data_.get()), H5Sclose, *path_, "select in " + name_);
+    const hsize_t start[2] = {rows_, 0}, block[2] = {count, columns_};
+    check(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, block, nullptr), *path_,
+          "select in " + name_);
+    Handle memory = check(H5Screate_simple(rank, block, nullptr), H5Sclose, *path_, "make a memory space");
+    check(H5Dwrite(data_.get(), H5T_NATIVE_DOUBLE, memory.get(), file_space.get(), H5P_DEFAULT, values), *path_,
+          "write " + name_);
+    rows_ += count;
+  }
+
+ private:
+  const std::string* path_ = nullptr;
+  std::string name_;
+  hsize_t columns_ = 0, rows_ = 0;
+  Handle data_;
+};
+
+// A fixed 1-D dataset of numbers or strings, written at once (the batch's columns, the names).
+template <class T>
+void write_column(hid_t file, const std::string& path, const std::string& name, const std::vector<T>& values) {
+  static_assert(std::is_same_v<T, double> || std::is_same_v<T, std::int64_t>);
+  constexpr bool real = std::is_same_v<T, double>;
+  const hsize_t n = values.size();
+  Handle space = check(H5Screate_simple(1, &n, nullptr), H5Sclose, path, "make the space of " + name);
+  Handle d = check(H5Dcreate2(file, name.c_str(), real ? H5T_IEEE_F64LE : H5T_STD_I64LE, space.get(), H5P_DEFAULT,
+                              H5P_DEFAULT, H5P_DEFAULT),
+                   H5Dclose, path, "create " + name);
+  if (n > 0)
+    check(H5Dwrite(d.get(), real ? H5T_NATIVE_DOUBLE : H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()),
+          path, "write " + name);
+}
+
+void write_column(hid_t file, const std::string& path, const std::string& name, const std::vector<std::string>& values) {
+  const hsize_t n = values.size();
+  std::vector<const char*> text(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) text[i] = values[i].c_str();
+  Handle type = string_type(path);
+  Handle space = check(H5Screate_simple(1, &n, nullptr), H5Sclose, path, "make the space of " + name);
+  Handle d = check(H5Dcreate2(file, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                   H5Dclose, path, "create " + name);
+  if (n > 0) check(H5Dwrite(d.get(), type.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, text.data()), path, "write " + name);
+}
+
+}  // namespace
+
+struct Hdf5RunWriter::Impl {
+  std::string path;
+  Handle file;
+  hsize_t n = 0, buffer_rows = 1, buffered = 0;
+  Growing t, q, p, energy, energy_post, residual, gap;
+  std::vector<double> bt, bq, bp, be, bep, br, bg;  // frames not yet written
+
+  void flush() {
+    t.append(bt.data(), buffered);
+    q.append(bq.data(), buffered);
+    p.append(bp.data(), buffered);
+    energy.append(be.data(), buffered);
+    energy_post.append(bep.data(), buffered);
+    residual.append(br.data(), buffered);
+    gap.append(bg.data(), buffered);
+    for (auto* b : {&bt, &bq, &bp, &be, &bep, &br, &bg}) b->clear();
+    buffered = 0;
+  }
+};
+
+Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig& config, const std::string& scene,
+                             const Parameters& params)
+    : impl_(std::make_unique<Impl>()) {
+  const Quiet quiet;
+  impl_->path = path;
+  impl_->file = create_file(path);
+  attribute(impl_->file.get(), path, "format", std::string("nonholo run"));
+  describe_run(impl_->file.get(), path, config, scene, &params);
+}
+
+Hdf5RunWriter::~Hdf5RunWriter() {
+  if (!impl_ || !impl_->file) return;
+  const Quiet quiet;
+  try {
+    if (impl_->buffered > 0) impl_->flush();
+  } catch (const std::exception&) {  // a destructor does not throw: the file is still closed
+  }
+}
+
+void Hdf5RunWriter::begin(const std::vector<std::string>& coordinates) {
+  const Quiet quiet;
+  Impl& w = *impl_;
+  const hid_t f = w.file.get();
+  w.n = coordinates.size();
+  // About 1 MB of q a chunk (at least one frame); the 1-D series chunk as many frames.
+  w.buffer_rows = std::max<hsize_t>(1, (hsize_t{1} << 17) / std::max<hsize_t>(1, w.n));
+  w.t = Growing(f, w.path, "t", 0, w.buffer_rows);
+  w.q = Growing(f, w.path, "q", w.n, w.buffer_rows);
+  w.p = Growing(f, w.path, "p", w.n, w.buffer_rows);
+  w.energy = Growing(f, w.path, "energy", 0, w.buffer_rows);
+  w.energy_post = Growing(f, w.path, "energy_post", 0, w.buffer_rows);
+  w.residual = Growing(f, w.path, "residual", 0, w.buffer_rows);
+  w.gap = Growing(f, w.path, "gap", 0, w.buffer_rows);
+  write_column(f, w.path, "coordinates", coordinates);
+}
+
+void Hdf5RunWriter::frame(double t, ConstVecRef q, ConstVecRef p, const Diagnostics& d) {
+  Impl& w = *impl_;
+  w.bt.push_back(t);
+  w.bq.insert(w.bq.end(), q.data(), q.data() + q.size());
+  w.bp.insert(w.bp.end(), p.data(), p.data() + p.size());
+  w.be.push_back(d.energy);
+  w.bep.push_back(d.energy_post);
+  w.br.push_back(d.residual);
+  w.bg.push_back(d.gap);
+  if (++w.buffered == w.buffer_rows) {
+    const Quiet quiet;
+    w.flush();
+  }
+}
+
+void Hdf5RunWriter::end() {
+  const Quiet quiet;
+  impl_->flush();
+}
+
+void Hdf5RunWriter::finish(const RunSummary& summary) {
+  const Quiet quiet;
+  Impl& w = *impl_;
+  if (w.buffered > 0) w.flush();
+  describe_summary(w.file.get(), w.path, summary);
+  for (Growing* d : {&w.t, &w.q, &w.p, &w.energy, &w.energy_post, &w.residual, &w.gap}) *d = Growing();
+  if (!w.file.reset()) fail(w.path, "close the file");
+}
+
+void write_batch_hdf5(const std::string& path, const BatchConfig& config, const std::string& scene,
+                      const BatchResult& result) {
+  const Quiet quiet;
+  Handle file = create_file(path);
+  const hid_t f = file.get();
+  attribute(f, path, "format", std::string("nonholo batch"));
+  describe_run(f, path, config.run, scene, nullptr);
+  attribute(f, path, "count", config.count);
+  attribute(f, path, "seed", static_cast<long>(config.seed));
+  for (const auto& v : config.vary) attribute(f, path, "vary " + v.substr(0, v.find('=')), v);
+  for (const auto& a : config.run.assignments) attribute(f, path, "set " + a.substr(0, a.find('=')), a);
+
+  // The CSV's columns, in its order and with its names.
+  const auto& rows = result.rows;
+  auto column = [&](const std::string& name, auto value) {
+    std::vector<double> c(rows.size());
+    for (std::size_t i = 0; i < rows.size(); ++i) c[i] = value(rows[i]);
+    write_column(f, path, name, c);
+  };
+  std::vector<std::int64_t> index(rows.size()), restarts(rows.size());
+  std::vector<std::string> status(rows.size()), messages(rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    index[i] = static_cast<std::int64_t>(i);
+    restarts[i] = rows[i].summary.restarts;
+    status[i] = to_string(rows[i].summary.status);
+    messages[i] = rows[i].summary.message;
+  }
+  using Row = BatchResult::Trajectory;
+  write_column(f, path, "trajectory", index);
+  for (std::size_t v = 0; v < result.varied.size(); ++v) column(result.varied[v], [v](const Row& r) { return r.values[v]; });
+  column("t_final", [](const Row& r) { return r.summary.t_final; });
+  for (std::size_t c = 0; c < result.shown.size(); ++c) column(result.shown[c], [c](const Row& r) { return r.final_q[c]; });
+  column("energy_rel_err_max", [](const Row& r) { return r.summary.energy_rel_err_max; });
+  column("energy_post_rel_err_max", [](const Row& r) { return r.summary.energy_post_rel_err_max; });
+  column("residual_max", [](const Row& r) { return r.summary.residual_max; });
+  column("gap_max", [](const Row& r) { return r.summary.gap_max; });
+  write_column(f, path, "restarts", restarts);
+  column("parasitic_max", [](const Row& r) { return r.summary.parasitic_max; });
+  if (result.aggregate.has_work) {
+    column("work", [](const Row& r) { return r.summary.has_work ? r.summary.work : std::nan(""); });
+    column("energy_balance_err_max", [](const Row& r) { return r.summary.energy_balance_err_max; });
+  }
+  if (config.run.error_estimate) column("error_estimate", [](const Row& r) { return r.summary.error_estimate; });
+  write_column(f, path, "status", status);
+  write_column(f, path, "messages", messages);
+
+  describe_summary(f, path, result.aggregate);
+  Handle g = group(f, path, "batch");
+  attribute(g.get(), path, "trajectories", result.trajectories);
+  attribute(g.get(), path, "threads", static_cast<long>(result.threads));
+  attribute(g.get(), path, "failed", result.failed);
+  attribute(g.get(), path, "first_failure", result.first_failure);
+  g.reset();
+  if (!file.reset()) fail(path, "close the file");
+}
+
+}  // namespace nonholo::scenarios

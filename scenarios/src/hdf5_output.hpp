@@ -1,0 +1,49 @@
+#pragma once
+// HDF5 output of `nonholo run` and `nonholo batch` (--out FILE.h5 or .hdf5), for runs whose CSV
+// would be gigabytes of text. A run's file: chunked, compressed datasets /t (frames), /q and /p
+// (frames x coordinates), /energy, /energy_post, /residual, /gap, the names in /coordinates,
+// and attributes: the scene and the run's options on /, the scene's parameters on
+// /parameters, the summary on /summary. A batch's: one dataset per column of its CSV (one row
+// per trajectory), the same attributes. The values are the CSV's, bit for bit. The file is
+// closed properly after a failed step or Ctrl-C (the run ends normally then). Built with
+// HDF5 when found (NONHOLO_WITH_HDF5); without it, opening one throws and says so.
+#include <nonholo/scenarios/batch.hpp>
+#include <nonholo/scenarios/parameters.hpp>
+#include <nonholo/scenarios/run.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace nonholo::scenarios {
+
+// Whether a --out path asks for HDF5 (ends in .h5 or .hdf5).
+inline bool is_hdf5_path(const std::string& path) {
+  auto ends = [&](const char* e, std::size_t n) { return path.size() > n && path.compare(path.size() - n, n, e) == 0; };
+  return ends(".h5", 3) || ends(".hdf5", 5);
+}
+
+class Hdf5RunWriter final : public FrameSink {
+ public:
+  // Creates the file (throws std::invalid_argument when it cannot, or without HDF5) and
+  // writes the attributes known before the run.
+  Hdf5RunWriter(const std::string& path, const RunConfig& config, const std::string& scene,
+                const Parameters& params);
+  ~Hdf5RunWriter() override;  // closes the file if finish() did not
+  void begin(const std::vector<std::string>& coordinates) override;
+  void frame(double t, ConstVecRef q, ConstVecRef p, const Diagnostics& d) override;
+  void end() override;  // writes the buffered frames
+  // The summary's attributes, then closes the file; throws std::runtime_error on a write error.
+  void finish(const RunSummary& summary);
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+// The batch's table (BatchResult::rows) as datasets; throws like the writer above.
+void write_batch_hdf5(const std::string& path, const BatchConfig& config, const std::string& scene,
+                      const BatchResult& result);
+
+}  // namespace nonholo::scenarios

@@ -1,0 +1,126 @@
+"""`nonholo run|batch --out FILE.h5` (scenarios/src/hdf5_output.cpp) read with h5py: the CSV's
+numbers to the last digit, the attributes, /p and /gap against invariants, and a readable file
+after a failed step and after Ctrl-C."""
+import os
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+from support import CLI, cli, read_csv as table, summary_of
+
+h5py = pytest.importorskip("h5py")
+
+
+def text(x):
+    return x.decode() if isinstance(x, bytes) else x
+
+
+def test_run_writes_the_csvs_numbers_and_its_attributes(tmp_path):
+    args = ["run", "wheeled_train", "--set", "bodies=6", "--set", "seed=4", "--t-end", "2", "--every", "7"]
+    done_csv = cli(*args, "--out", str(tmp_path / "a.csv"))
+    done_h5 = cli(*args, "--out", str(tmp_path / "a.h5"))
+    assert done_csv.returncode == 0 and done_h5.returncode == 0, done_h5.stderr
+    header, rows = table(tmp_path / "a.csv")
+    values = np.array([[float(x) for x in row] for row in rows])
+    with h5py.File(tmp_path / "a.h5", "r") as f:
+        names = [text(c) for c in f["coordinates"][:]]
+        n = len(names)
+        assert header == ["t"] + names + ["energy", "energy_post", "residual"]
+        assert f["q"].shape == f["p"].shape == (len(rows), n) and f["t"].shape == (len(rows),)
+        assert f["q"].compression == "gzip" and f["q"].chunks is not None
+        for j, name in enumerate(["t"]):
+            assert np.array_equal(values[:, j], f[name][:])
+        assert np.array_equal(values[:, 1:n + 1], f["q"][:])
+        assert np.array_equal(values[:, n + 1], f["energy"][:])
+        assert np.array_equal(values[:, n + 2], f["energy_post"][:], equal_nan=True)
+        assert np.array_equal(values[:, n + 3], f["residual"][:])
+        # Attributes: the scene, its parameters, the options, the summary (the line's numbers).
+        assert text(f.attrs["scene"]) == "wheeled_train" and text(f.attrs["method"]) == "reflection"
+        assert f["parameters"].attrs["bodies"] == 6 and f["parameters"].attrs["seed"] == 4
+        assert f.attrs["every"] == 7 and f.attrs["t_end"] == 2.0
+        s = f["summary"].attrs
+        line = summary_of(done_h5.stdout)
+        assert text(s["status"]) == "ok" and s["steps"] == int(line["steps"]) == 200
+        assert format(s["gap_max"], ".6g") == line["gap_max"]
+        # /gap is the gap of each frame: its largest is at most the run's (taken over every step).
+        assert 0 < f["gap"][:].max() <= s["gap_max"]
+
+
+def test_p_is_the_momentum_whose_energy_the_run_reports(tmp_path):
+    # The particle: M = I and no potential, so energy = |p~|^2 / 2 at every frame.
+    path = tmp_path / "particle.h5"
+    assert cli("run", "particle", "--t-end", "3", "--out", str(path)).returncode == 0
+    with h5py.File(path, "r") as f:
+        p, energy = f["p"][:], f["energy"][:]
+    assert p.shape == (301, 3)
+    assert np.allclose(0.5 * (p * p).sum(axis=1), energy, rtol=1e-14, atol=0)
+
+
+JAM = ["--set", "phi0=1.5607963267948966", "--set", "phi_dot0=1", "--set", "v0=0"]  # fails at step 1
+
+
+def test_a_failed_run_leaves_a_readable_file_with_its_status(tmp_path):
+    path = tmp_path / "jam.h5"
+    done = cli("run", "snakeboard", "--dt", "0.01", *JAM, "--out", str(path))
+    assert done.returncode == 2
+    with h5py.File(path, "r") as f:
+        assert f["t"].shape == (1,) and f["q"].shape == (1, 5)
+        assert text(f["summary"].attrs["status"]) == "dependent-one-forms"
+        assert "step 1 from t = 0 failed" in text(f["summary"].attrs["message"])
+
+
+def test_ctrl_c_leaves_a_readable_file(tmp_path):
+    path = tmp_path / "long.h5"
+    proc = subprocess.Popen([CLI, "run", "sleigh_chain", "--set", "bodies=2000", "--t-end", "10000", "--every", "50",
+                             "--out", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    with h5py.File(path, "r") as f:
+        frames = f["t"].shape[0]
+        assert frames >= 1 and f["q"].shape == (frames, 6000)
+        assert text(f["summary"].attrs["status"]) == "interrupted"
+        assert f["summary"].attrs["steps"] == int(summary_of(out)["steps"])
+
+
+def test_batch_writes_the_csvs_columns(tmp_path):
+    args = ["batch", "sleigh", "--count", "9", "--vary", "m=-0.5:1.5", "--seed", "5", "--t-end", "1"]
+    assert cli(*args, "--out", str(tmp_path / "b.csv")).returncode == 2  # some are refused
+    done = cli(*args, "--out", str(tmp_path / "b.h5"))
+    assert done.returncode == 2, done.stderr
+    header, rows = table(tmp_path / "b.csv")
+    with h5py.File(tmp_path / "b.h5", "r") as f:
+        for j, name in enumerate(header):
+            column = f[name][:]
+            if name == "status":
+                assert [text(x) for x in column] == [row[j] for row in rows]
+            else:
+                assert np.array_equal(column, np.array([float(row[j]) for row in rows]), equal_nan=True), name
+        failed = [i for i, row in enumerate(rows) if row[-1] != "ok"]
+        assert failed and all(text(f["messages"][i]) for i in failed)
+        assert f["batch"].attrs["failed"] == len(failed) and f["batch"].attrs["trajectories"] == 9
+        assert text(f.attrs["vary m"]) == "m=-0.5:1.5"
+
+
+def test_an_unwritable_path_is_refused_before_integrating():
+    done = cli("run", "sleigh", "--out", "/nonexistent-dir/x.h5")
+    assert done.returncode == 1
+    assert "cannot open '/nonexistent-dir/x.h5' for writing" in done.stderr
+
+
+def test_plot_train_draws_the_same_picture_from_either_format(tmp_path):
+    pytest.importorskip("matplotlib")
+    script = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "plot_train.py")
+    pictures = []
+    for ext in ("csv", "h5"):
+        data = tmp_path / ("train." + ext)
+        assert cli("run", "wheeled_train", "--set", "bodies=30", "--t-end", "2", "--every", "10",
+                   "--out", str(data)).returncode == 0
+        png = tmp_path / (ext + ".png")
+        subprocess.run(["/usr/bin/python3", script, str(data), str(png)], check=True, capture_output=True)
+        pictures.append(png.read_bytes())
+    assert pictures[0] == pictures[1]
