@@ -1,7 +1,8 @@
 # cmake -P script: install the current build to WORK_DIR/prefix, then configure, build and
 # run one consumer of each component against it: examples/embed (core, with SUNDIALS hidden,
 # plus README's "Using the library" program extracted from README.md), examples/embed_reference
-# and examples/embed_scenarios. CONSUMER_FLAGS: the build's compiler flags (sanitizers).
+# and examples/embed_scenarios, and examples/embed_mpi WITH_MPI. CONSUMER_FLAGS: the build's
+# compiler flags (sanitizers).
 file(REMOVE_RECURSE ${WORK_DIR})
 function(run)
   execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -37,3 +38,6 @@ consumer(embed embed -DCMAKE_DISABLE_FIND_PACKAGE_SUNDIALS=ON
 run(${WORK_DIR}/embed/readme_program)
 consumer(embed_reference embed_reference)
 consumer(embed_scenarios embed_scenarios)
+if(WITH_MPI)  # one rank, without mpirun
+  consumer(embed_mpi embed_mpi)
+endif()

@@ -9,7 +9,8 @@ NONHOLO_BUILD="${NONHOLO_BUILD:-$NONHOLO_ROOT/build}"
 packages=(g++ make cmake libeigen3-dev libsuitesparse-dev libgtest-dev libgmock-dev
           libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev nlohmann-json3-dev
           python3-dev python3-numpy pybind11-dev python3-pytest
-          libhdf5-dev python3-h5py python3-matplotlib)
+          libhdf5-dev python3-h5py python3-matplotlib
+          libopenmpi-dev openmpi-bin)
 
 # Installs the given Debian packages that are missing (apt-get update once per shell).
 nonholo_require() {

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <exception>
 #include <memory>
 
 namespace nonholo {
@@ -24,13 +23,8 @@ std::vector<std::string> parallel_for(long count, int threads, const std::functi
   const long chunk = std::max(1L, count / (64L * t));
 #pragma omp parallel for schedule(dynamic, chunk) num_threads(t)
   for (long i = 0; i < count; ++i) {
-    try {
-      job(i, omp_get_thread_num());
-    } catch (const std::exception& e) {
-      errors[static_cast<std::size_t>(i)] = e.what();
-    } catch (...) {
-      errors[static_cast<std::size_t>(i)] = "unknown exception";
-    }
+    std::string error = capture_error([&] { job(i, omp_get_thread_num()); });
+    if (!error.empty()) errors[static_cast<std::size_t>(i)] = std::move(error);  // written on failure only
   }
   return errors;
 }

@@ -176,7 +176,8 @@ void list_scenes(std::ostream& out) {
 
 }  // namespace
 
-int run_command_line(int argc, const char* const* argv, std::ostream& out, std::ostream& err) {
+int run_command_line(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+                     BatchProcesses* processes) {
   CLI::App app{"nonholo: momentum- and energy-preserving integration of nonholonomic systems"};
   app.require_subcommand(1);
 
@@ -217,12 +218,16 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       list_scenes(out);
       return 0;
     }
+    if (processes && processes->size() > 1 && !batch_cmd->parsed())
+      throw std::invalid_argument("only `batch` is spread over MPI ranks: start `" + name +
+                                  "` without mpirun (or with -n 1)");
     if (wp_cmd->parsed()) {
       run_work_precision(wp, err);
       return 0;
     }
     if (batch_cmd->parsed()) {
       finish_batch_command(batch_cmd, batch_run, batch);
+      batch.processes = processes;
       InterruptScope on_ctrl_c;  // Ctrl-C: finish the rows, print the summary, exit 130
       const BatchResult result = run_batch(batch);
       out << result.line() << std::endl;
@@ -244,6 +249,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       return summary.status == Status::Interrupted ? kInterruptedExit : 2;
     }
   } catch (const std::exception& e) {
+    if (processes && batch_cmd->parsed()) processes->abandon();  // the other ranks may be waiting
     err << "nonholo " << name << ": " << e.what() << std::endl;
     return 1;
   }

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "batch_row.hpp"
 #include "hdf5_output.hpp"
 #include "random.hpp"
 #include "run_internal.hpp"
@@ -39,14 +40,6 @@ std::string number(double x) {
   char buf[32];
   return std::string(buf, std::to_chars(buf, buf + sizeof buf, x).ptr);
 }
-
-struct Row {
-  RunSummary summary;
-  std::vector<double> values;  // the varied parameters
-  Vector final_q;
-  std::vector<std::string> names;  // body 0's coordinates (first three), once set up
-  std::string error;
-};
 
 // The batch's table as CSV (`nonholo batch --out`): one row per trajectory, in order.
 void write_batch_csv(std::ofstream& out, const std::string& path, const BatchResult& result, bool error_estimate) {
@@ -82,10 +75,16 @@ void write_batch_csv(std::ofstream& out, const std::string& path, const BatchRes
 std::string BatchResult::line() const {
   std::ostringstream os;
   os << aggregate.line() << " trajectories=" << trajectories << " threads=" << threads << " failed=" << failed;
+  if (ranks > 0) os << " ranks=" << ranks;
   return os.str();
 }
 
 BatchResult run_batch(const BatchConfig& config) {
+  if (config.processes && !config.processes->writes() && !config.out.empty()) {
+    BatchConfig quiet = config;  // only the writing process opens the output
+    quiet.out.clear();
+    return run_batch(quiet);
+  }
   const auto start = std::chrono::steady_clock::now();
   if (config.count < 1) throw std::invalid_argument("--count " + std::to_string(config.count) + ": must be at least 1");
   if (config.threads < 0) throw std::invalid_argument("--threads " + std::to_string(config.threads) + ": must be positive");
@@ -108,10 +107,11 @@ BatchResult run_batch(const BatchConfig& config) {
   }
 
   const int threads = batch_threads(config.threads);
-  std::vector<Row> rows(static_cast<std::size_t>(config.count));
-  Progress progress("batch " + prepared.info.name, config.count);
-  const auto errors = parallel_for(config.count, threads, [&](long i, int) {
-    Row& row = rows[static_cast<std::size_t>(i)];
+  std::vector<Row> rows;  // all of them, on the writing process only
+  // Over several MPI ranks each sees only its own share: no bar then.
+  const bool spread = config.processes && config.processes->size() > 1;
+  Progress progress("batch " + prepared.info.name, spread ? 0 : config.count);
+  const auto integrate_row = [&](long i, Row& row) {
     Parameters p = base;
     // Draws depend on (seed, trajectory, variation) only.
     Random random(config.seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(i));
@@ -124,12 +124,39 @@ BatchResult run_batch(const BatchConfig& config) {
     row.summary = integrate_scene(prepared, p, run_config, nullptr, &row.final_q, i == 0 ? &progress : nullptr,
                                   &row.names);
     progress.add(1);
-  });
+  };
+  std::vector<std::string> errors;
+  if (!config.processes) {
+    rows.resize(static_cast<std::size_t>(config.count));
+    errors = parallel_for(config.count, threads, [&](long i, int) { integrate_row(i, rows[static_cast<std::size_t>(i)]); });
+  } else {
+    // Each row comes back as bytes, with what a failed set-up left in it (the drawn values).
+    auto items = config.processes->run(config.count, threads, [&](long i, int) {
+      Row row;
+      row.error = capture_error([&] { integrate_row(i, row); });
+      return pack_row(row);
+    });
+    if (!config.processes->writes()) {
+      BatchResult share;
+      share.trajectories = config.count;
+      share.threads = threads;
+      share.ranks = config.processes->size();
+      return share;
+    }
+    rows.resize(items.size());
+    errors.resize(items.size());
+    for (std::size_t i = 0; i < items.size(); ++i) {
+      if (items[i].error.empty()) rows[i] = unpack_row(items[i].data);
+      errors[i] = items[i].error.empty() ? rows[i].error : items[i].error;
+      items[i] = EnsembleItem{};  // the bytes are not needed twice
+    }
+  }
   progress.finish();
 
   BatchResult result;
   result.trajectories = config.count;
   result.threads = threads;
+  result.ranks = config.processes ? config.processes->size() : 0;
   RunSummary& agg = result.aggregate;
   agg.scene = prepared.info.name;
   agg.method = config.run.method;

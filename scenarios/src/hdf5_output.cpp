@@ -350,6 +350,7 @@ void write_batch_hdf5(const std::string& path, const BatchConfig& config, const 
   Handle g = group(f, path, "batch");
   attribute(g.get(), path, "trajectories", result.trajectories);
   attribute(g.get(), path, "threads", static_cast<long>(result.threads));
+  attribute(g.get(), path, "ranks", static_cast<long>(result.ranks));  // MPI processes (1 without mpirun)
   attribute(g.get(), path, "failed", result.failed);
   attribute(g.get(), path, "first_failure", result.first_failure);
   g.reset();

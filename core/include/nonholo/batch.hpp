@@ -9,6 +9,7 @@
 #include <nonholo/status.hpp>
 #include <nonholo/workspace.hpp>
 
+#include <exception>
 #include <functional>
 #include <string>
 #include <vector>
@@ -30,6 +31,20 @@ struct BatchOutcome {
 
 // The number of threads `requested` means here (0: all cores); at least 1.
 int batch_threads(int requested);
+
+// Runs f and returns the text of the exception it threw ("" if none): how a job's failure is
+// kept as its own outcome here and in ensemble_for (nonholo/mpi_ensemble.hpp).
+template <class F>
+std::string capture_error(F&& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  } catch (...) {
+    return "unknown exception";
+  }
+  return {};
+}
 
 // Runs job(i, thread) for i in [0, count) on `threads` threads (dynamic schedule). An
 // exception thrown by a job is caught and returned as that index's message ("" otherwise).

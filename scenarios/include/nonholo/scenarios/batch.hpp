@@ -4,6 +4,8 @@
 // draws NAME uniformly in [LO, HI] per trajectory from the seed (the same draws whatever the
 // thread count). One CSV row per trajectory, in trajectory order, byte-identical for any
 // number of threads; then a summary line as `run` prints, with trajectories= and threads=.
+// Under `mpirun`, the trajectories are spread over the ranks too (BatchProcesses).
+#include <nonholo/ensemble.hpp>
 #include <nonholo/scenarios/run.hpp>
 
 #include <cstdint>
@@ -13,6 +15,25 @@
 
 namespace nonholo::scenarios {
 
+// Spreads a batch's trajectories over processes: MPI ranks under `mpirun nonholo batch`
+// (scenarios/cli/mpi_batch.hpp, with ensemble_for of nonholo/mpi_ensemble.hpp). Every
+// process calls run_batch with the same config; each trajectory runs on one of them and its row
+// goes to the writing process, which writes the output and gets the full result; the others
+// open no output and get a result with `ranks` set and no rows.
+class BatchProcesses {
+ public:
+  virtual ~BatchProcesses() = default;
+  virtual int size() const = 0;
+  virtual bool writes() const = 0;
+  // Collective: job(i, thread) once for each i in [0, count) on some process, `threads`
+  // threads on each; every item in index order on the writing process, none elsewhere.
+  // Throws on every process when one of them called abandon() instead.
+  virtual std::vector<EnsembleItem> run(long count, int threads, const EnsembleJob& job) = 0;
+  // What a process that fails before run() calls instead (a no-op after it), so that the
+  // others do not wait for it forever.
+  virtual void abandon() = 0;
+};
+
 struct BatchConfig {
   RunConfig run;  // scene, --set, --dt, --t-end, --method, --hitch, ... (csv_path unused)
   long count = 0;
@@ -20,12 +41,14 @@ struct BatchConfig {
   std::vector<std::string> vary;  // NAME=LO:HI
   std::uint64_t seed = 1;
   std::string out;  // the per-trajectory CSV (empty: none)
+  BatchProcesses* processes = nullptr;  // MPI ranks (not owned); null: this process alone
 };
 
 struct BatchResult {
   RunSummary aggregate;  // max of the errors, total steps, wall time of the whole batch
   long trajectories = 0;
-  int threads = 0;
+  int threads = 0;  // per process
+  int ranks = 0;    // processes under MPI (the line then says ranks=); 0: not under MPI
   long failed = 0;
   std::string first_failure;  // "trajectory i: ..." of the first failed one
   std::string line() const;   // the summary line

@@ -1,0 +1,40 @@
+#include "mpi_main.hpp"
+
+#include <nonholo/scenarios/command_line.hpp>
+
+#include <cstdlib>
+#include <iostream>
+#include <sstream>
+
+#include "mpi_batch.hpp"
+
+namespace nonholo::scenarios {
+
+bool launched_by_mpi() {
+  // OpenMPI's mpirun, PMIx launchers (srun --mpi=pmix, prterun), PMI-1/2 launchers.
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK"})
+    if (std::getenv(name)) return true;
+  return false;
+}
+
+int mpi_main(int argc, char** argv) {
+  int provided = MPI_THREAD_SINGLE;
+  MPI_Init_thread(&argc, &argv, MPI_THREAD_SERIALIZED, &provided);
+  EnsembleOptions options;
+  if (provided < MPI_THREAD_SERIALIZED) options.schedule = EnsembleSchedule::Static;  // needs no claims from threads
+  int code = 0;
+  {
+    MpiBatch batch(MPI_COMM_WORLD, options);
+    if (batch.writes()) {
+      code = run_command_line(argc, argv, std::cout, std::cerr, &batch);
+    } else {  // the other ranks print nothing, unless they alone failed
+      std::ostringstream out, err;
+      code = run_command_line(argc, argv, out, err, &batch);
+      if (batch.failed_alone()) std::cerr << err.str() << std::flush;
+    }
+  }
+  MPI_Finalize();
+  return code;
+}
+
+}  // namespace nonholo::scenarios

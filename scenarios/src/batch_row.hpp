@@ -1,0 +1,26 @@
+#pragma once
+// One trajectory's row of `nonholo batch`, and the row as bytes: what a rank sends the
+// writing rank under MPI (BatchProcesses), so that its table is the one a single process
+// would have made, bit for bit.
+#include <nonholo/scenarios/run.hpp>
+#include <nonholo/types.hpp>
+
+#include <string>
+#include <vector>
+
+namespace nonholo::scenarios {
+
+struct Row {
+  RunSummary summary;
+  std::vector<double> values;  // the varied parameters
+  Vector final_q;
+  std::vector<std::string> names;  // body 0's coordinates (first three), once set up
+  std::string error;
+};
+
+// The whole row but final_q past its first three entries (all the table shows).
+std::string pack_row(const Row& row);
+// Throws std::logic_error on bytes that pack_row did not make.
+Row unpack_row(const std::string& bytes);
+
+}  // namespace nonholo::scenarios

@@ -1,0 +1,143 @@
+// `mpirun -n P nonholo batch` against one process (`nonholo batch` in-process): the same CSV
+// byte for byte and the same summary line but for its timings and ranks=P, for 1, 2 and 3
+// ranks; other ranks print nothing; trajectories refused on one rank do not stop the others;
+// a rank that cannot begin does not leave the others waiting; only `batch` is spread.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <vector>
+
+#include "support/run_cli.hpp"
+
+namespace nonholo {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string temp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("nonholo_mpi_" + std::to_string(::getpid()) + "_" + name)).string();
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+struct Launch {
+  int code;
+  std::string out, err;
+};
+
+// `mpirun -n P --oversubscribe <nonholo> args...` (a hang fails after 120 s). OpenMPI refuses
+// to start as root without the two variables.
+Launch mpirun(int ranks, const std::string& args) {
+  const std::string out = temp("out.txt"), err = temp("err.txt");
+  const std::string cmd = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 timeout 120 " + std::string(NONHOLO_MPIEXEC) + " -n " + std::to_string(ranks) +
+                          " --oversubscribe " + NONHOLO_CLI + " " + args + " > " + out + " 2> " + err;
+  const int status = std::system(cmd.c_str());
+  Launch r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+  std::remove(out.c_str());
+  std::remove(err.c_str());
+  return r;
+}
+
+// The same command in this process, without MPI.
+testing::CliResult alone(const std::string& args) {
+  std::istringstream in(args);
+  std::vector<std::string> words;
+  for (std::string w; in >> w;) words.push_back(w);
+  return testing::run_cli(words);
+}
+
+// A summary line without what depends on the run (its timings) and on the launch (ranks=).
+std::string comparable(const std::string& line) {
+  static const std::regex timing(" (wall_s|ns_per_step|ns_per_body_step|ranks)=[^ \n]*");
+  return std::regex_replace(line, timing, "");
+}
+
+long lines(const std::string& text) { return std::count(text.begin(), text.end(), '\n'); }
+
+// One process with `threads`, then P ranks with `rank_threads` each, the same batch: equal.
+void expect_same(const std::string& batch, int threads, int ranks, int rank_threads, int code = 0) {
+  const std::string single = temp("single.csv"), spread = temp("spread.csv");
+  const auto one = alone(batch + " --threads " + std::to_string(threads) + " --out " + single);
+  ASSERT_EQ(one.code, code) << one.err;
+  EXPECT_THAT(one.out, ::testing::Not(HasSubstr("ranks="))) << "no ranks= without MPI";
+  const Launch many = mpirun(ranks, batch + " --threads " + std::to_string(rank_threads) + " --out " + spread);
+  EXPECT_EQ(many.code, code) << many.out << many.err;
+  EXPECT_EQ(lines(many.out), 1) << "one summary line, from rank 0 only:\n" << many.out;
+  EXPECT_THAT(many.out, HasSubstr(" ranks=" + std::to_string(ranks) + "\n"));
+  EXPECT_EQ(comparable(many.out),
+            comparable(std::regex_replace(one.out, std::regex("threads=\\d+"), "threads=" + std::to_string(rank_threads))));
+  const std::string csv = slurp(single);
+  EXPECT_GT(lines(csv), 1);
+  EXPECT_EQ(slurp(spread), csv) << ranks << " ranks";
+  std::remove(single.c_str());
+  std::remove(spread.c_str());
+}
+
+const char* kChains = "batch sleigh_chain --count 12 --set bodies=5 --vary omega0=-1:1 --vary k=0:2 --t-end 2";
+
+TEST(MpiBatch, OneRankIsOneProcess) { expect_same(kChains, 1, 1, 2); }
+TEST(MpiBatch, TwoRanksAreOneProcess) { expect_same(kChains, 2, 2, 1); }
+TEST(MpiBatch, ThreeRanksAreOneProcess) { expect_same(kChains, 3, 3, 2); }
+
+// The summary's other fields: work, energy balance and the error estimate (a driven train), and
+// a reference method's evaluations and momentum drift (snakeboard with RK4).
+TEST(MpiBatch, EveryFieldComesBack) {
+  expect_same("batch wheeled_train --count 6 --set bodies=3 --t-end 1 --error-estimate --vary force=0:1", 1, 2, 1);
+  expect_same("batch snakeboard --count 5 --method rk4 --t-end 1 --vary v0=0.5:1", 2, 3, 1);
+}
+
+TEST(MpiBatch, RefusedTrajectoriesDoNotStopTheOthers) {
+  // Masses drawn in [-0.5, 1.5]: trajectory 6 of seed 7 is refused at set-up, on whichever rank.
+  const char* batch = "batch sleigh --count 10 --vary m=-0.5:1.5 --t-end 1 --seed 7";
+  for (int ranks : {2, 3}) expect_same(batch, 2, ranks, 1, 2);
+  const Launch r = mpirun(3, std::string(batch) + " --threads 1");
+  const std::string failure = "nonholo batch: 1 of 10 trajectories failed; first: trajectory 6: sleigh: parameter m";
+  EXPECT_THAT(r.err, HasSubstr(failure));
+  EXPECT_EQ(r.err.find(failure), r.err.rfind(failure)) << "said once, by rank 0:\n" << r.err;
+  EXPECT_THAT(r.out, HasSubstr("failed=1 ranks=3"));
+}
+
+TEST(MpiBatch, ARankThatCannotBeginStopsTheOthers) {
+  // Rank 0 cannot write its output: said once, everyone stops.
+  const Launch r = mpirun(2, "batch sleigh --count 4 --out /nonexistent/dir/x.csv");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_EQ(r.out, "");
+  const std::string said = "nonholo batch: cannot open '/nonexistent/dir/x.csv' for writing";
+  EXPECT_THAT(r.err, HasSubstr(said));
+  EXPECT_EQ(r.err.find(said), r.err.rfind(said)) << r.err;
+  // Rank 1 alone cannot read its scene (mpirun's MPMD form gives it other arguments): it says
+  // why, rank 0 says which rank.
+  const std::string cmd = "batch sleigh --count 4 : -n 1 " + std::string(NONHOLO_CLI) + " batch missing.json --count 4";
+  const Launch m = mpirun(1, cmd);
+  EXPECT_EQ(m.code, 1) << m.err;
+  EXPECT_THAT(m.err, HasSubstr("nonholo batch: missing.json"));
+  EXPECT_THAT(m.err, HasSubstr("nonholo batch: rank 1 of 2 could not begin the batch"));
+}
+
+TEST(MpiBatch, OnlyBatchIsSpread) {
+  const Launch two = mpirun(2, "run sleigh --t-end 1");
+  EXPECT_EQ(two.code, 1);
+  EXPECT_EQ(two.out, "");
+  EXPECT_THAT(two.err, HasSubstr("nonholo run: only `batch` is spread over MPI ranks"));
+  const Launch one = mpirun(1, "run sleigh --t-end 1");
+  EXPECT_EQ(one.code, 0) << one.err;
+  EXPECT_EQ(comparable(one.out), comparable(alone("run sleigh --t-end 1").out));
+}
+
+}  // namespace
+}  // namespace nonholo
