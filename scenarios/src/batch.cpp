@@ -148,6 +148,8 @@ BatchResult run_batch(const BatchConfig& config) {
     for (std::size_t i = 0; i < items.size(); ++i) {
       if (items[i].error.empty()) rows[i] = unpack_row(items[i].data);
       errors[i] = items[i].error.empty() ? rows[i].error : items[i].error;
+      if (rows[i].values.size() != variations.size())  // the job itself failed: keep the table's columns
+        rows[i].values.assign(variations.size(), std::numeric_limits<double>::quiet_NaN());
       items[i] = EnsembleItem{};  // the bytes are not needed twice
     }
   }
