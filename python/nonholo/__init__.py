@@ -152,10 +152,10 @@ def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=
     Every option is the command line's (None: the tool's default): dt, t_end, set (a dict of
     scene parameters, or "NAME=VALUE" strings), method, order, hitch, every (keep every K-th
     step and the last), backend, restart ("auto", 0 or K), restart_tol, monitor_every,
-    composition, error_estimate, project, tol; out also writes the CLI's CSV. Bad options raise
-    ValueError with the tool's message; a failed step ends the run early with
-    summary["status"] saying why (check=True raises RunError instead). Ctrl-C raises
-    KeyboardInterrupt with the frames so far in its .result.
+    composition, error_estimate, project, tol; out also writes the CLI's file (CSV, or HDF5
+    for .h5). Bad options raise ValueError with the tool's message; a failed step ends the
+    run early with summary["status"] saying why (check=True raises RunError instead). Ctrl-C
+    raises KeyboardInterrupt with the frames so far in its .result.
     """
     args = _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
                           monitor_every, composition, error_estimate, project, tol)
@@ -173,9 +173,9 @@ def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None
           check=False):
     """Many trajectories of one scene in parallel, as `nonholo batch` does: count
     trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
-    from seed, threads (default: all cores), out (the CLI's CSV) and run()'s options. Returns
-    a BatchResult; failed trajectories are reported in its columns["status"] and messages
-    (check=True raises RunError if any failed)."""
+    from seed, threads (default: all cores), out (the CLI's CSV, or HDF5 for .h5) and run()'s
+    options. Returns a BatchResult; failed trajectories are reported in its columns["status"]
+    and messages (check=True raises RunError if any failed)."""
     args = _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
                           monitor_every, composition, error_estimate, project, tol)
     args.extend(["--count", _integer("--count", count)])
