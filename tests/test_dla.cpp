@@ -25,6 +25,13 @@ scenarios::SceneSetup scene(const char* name) {
   return info.build(info.defaults());
 }
 
+// A refused step leaves the state exactly as it was.
+void expect_unchanged(const DlaState& s, const DlaState& before) {
+  EXPECT_EQ(s.q, before.q);
+  EXPECT_EQ(s.p, before.p);
+  EXPECT_EQ(s.t, before.t);
+}
+
 // Max over the steps of |(x, y, theta) - exact| for the default sleigh to T.
 double sleigh_error(DlaConstraint c, double h, double t_end) {
   const auto setup = scene("sleigh");
@@ -91,9 +98,7 @@ TEST(Dla, NewtonFailureLeavesTheStateUnchanged) {
   const DlaState before = s;
   EXPECT_EQ(dla_step(setup.model, ws, s, o), Status::NewtonNotConverged);
   EXPECT_THAT(ws.message(), ::testing::HasSubstr("midpoint constraints: relative residual"));
-  EXPECT_EQ(s.q, before.q);
-  EXPECT_EQ(s.p, before.p);
-  EXPECT_EQ(s.t, before.t);
+  expect_unchanged(s, before);
   DlaOptions bad;
   bad.max_newton_iterations = 0;
   testing::expect_error([&] { validate(bad); }, "max_newton_iterations = 0 must be at least 1");
@@ -112,8 +117,7 @@ TEST(Dla, LeanWorkspaceRefusesOnlyTheMidpointStep) {
   const DlaState before = s;
   EXPECT_EQ(dla_step(setup.model, lean, s, o), Status::MethodNotApplicable);
   EXPECT_THAT(lean.message(), ::testing::HasSubstr("WorkspaceOptions::dla_steps = true"));
-  EXPECT_EQ(s.q, before.q);
-  EXPECT_EQ(s.p, before.p);
+  expect_unchanged(s, before);
   o.constraint = DlaConstraint::Left;
   DlaState t = s;
   for (int k = 0; k < 10; ++k) {
