@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include "rigid/drift.hpp"
+
 namespace nonholo {
 
 double kinetic_energy(const Model& model, ConstVecRef p, VecRef scratch) {
@@ -19,8 +21,14 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h
   ws.scratch_n2 = s.p - 0.5 * h * s.force;
   d.energy_post = kinetic_energy(model, ws.scratch_n2, ws.scratch_n);
   if (model.has_potential()) {
-    ws.scratch_n2 = s.q - h * ws.scratch_n;
-    d.energy_post += 0.5 * (model.potential(ws.scratch_n2) + v_now);
+    if (model.has_rigid_bodies()) {  // q_{k-1} through the rigid bodies' Legendre transforms
+      d.energy_post += 0.5 * (detail::previous_potential(model, ws.rotation(), h, s.q, ws.scratch_n2, ws.scratch_n,
+                                                         ws.scratch_q) +
+                              v_now);
+    } else {
+      ws.scratch_n2 = s.q - h * ws.scratch_n;
+      d.energy_post += 0.5 * (model.potential(ws.scratch_n2) + v_now);
+    }
   }
 
   if (model.num_holonomic() > 0) {

@@ -33,6 +33,10 @@ Status dla_step_unguarded(const Model& model, Workspace& ws, DlaState& s, const 
   const int n = model.num_coordinates(), m = model.num_one_forms();
   if (&ws.model() != &model)
     return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
+  if (model.has_rigid_bodies())
+    return ws.fail(Status::MethodNotApplicable,
+                   "the DLA baselines are for planar models; this one has 3-D rigid bodies: use the reflection "
+                   "method or the reference integrators");
   if (!(o.h > 0.0) || !std::isfinite(o.h))
     return ws.fail(Status::InvalidStepSize, "step size h = %g must be positive and finite", o.h);
   if (s.q.size() != n || s.p.size() != n)

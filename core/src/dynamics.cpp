@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "chain_sweep.hpp"
+#include "rigid/drift.hpp"
 
 namespace nonholo {
 
@@ -30,14 +31,33 @@ Status one_form_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecR
   const int nnz = model.num_one_form_values();
   Vector& mu_plus = ws.scratch_nnz;
   Vector& mu_minus = ws.scratch_nnz2;
-  ws.scratch_n2 = q + delta * qdot;
-  model.one_form_values(ws.scratch_n2, mu_plus);
-  ws.scratch_n2 = q - delta * qdot;
-  model.one_form_values(ws.scratch_n2, mu_minus);
+  if (model.has_rigid_bodies()) {  // along q exp(+-delta hat(Omega)): the motion's own curve
+    ws.scratch_n2 = delta * qdot;
+    model.retract(q, ws.scratch_n2, ws.scratch_q);
+    model.one_form_values(ws.scratch_q, mu_plus);
+    ws.scratch_n2 = -delta * qdot;
+    model.retract(q, ws.scratch_n2, ws.scratch_q);
+    model.one_form_values(ws.scratch_q, mu_minus);
+  } else {
+    ws.scratch_n2 = q + delta * qdot;
+    model.one_form_values(ws.scratch_n2, mu_plus);
+    ws.scratch_n2 = q - delta * qdot;
+    model.one_form_values(ws.scratch_n2, mu_minus);
+  }
   for (int k = 0; k < nnz; ++k) mu_plus[k] = (mu_plus[k] - mu_minus[k]) / (2.0 * delta);
   model.mu_times(mu_plus.data(), qdot.data(), bias.data());
   if (!std::isfinite(bias.sum()))
     return ws.fail(Status::NonFiniteOneForms, "the difference quotient of mu along qdot is not finite: check the one-form values near q, or give the model its bias (one_form_bias)");
+  return Status::Ok;
+}
+
+Status constraint_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias) {
+  const Status status = one_form_bias(model, ws, q, qdot, bias);
+  if (status != Status::Ok || !model.has_rigid_bodies() || model.num_one_forms() == 0) return status;
+  // + mu M^-1 g(v); mu(q) is in the workspace (the callers evaluated it at q).
+  detail::gyroscopic_acceleration(model, qdot, ws.gyroscopic);
+  model.mu_times(ws.mu_values.data(), ws.gyroscopic.data(), ws.gyroscopic_m.data());
+  bias += ws.gyroscopic_m;
   return Status::Ok;
 }
 
@@ -61,7 +81,7 @@ Status constraint_multiplier(const Model& model, Workspace& ws, double t, ConstV
                              ConstVecRef qdot, VecRef lambda, double min_pivot_ratio) {
   if (model.num_one_forms() == 0) return Status::Ok;
   Status status = ws.factorize_at(q, min_pivot_ratio);
-  if (status == Status::Ok) status = one_form_bias(model, ws, q, qdot, ws.rhs);
+  if (status == Status::Ok) status = constraint_bias(model, ws, q, qdot, ws.rhs);
   if (status != Status::Ok) return status;
   if (model.has_applied_force()) {
     model.applied_force(t, q, ws.applied, ws.scratch_n);

@@ -4,6 +4,7 @@
 // and the thrusts' forces (the general callbacks every integrator understands), and, when
 // the rows run body by body, the per-body layout of the fused chain step (chain_sweep.cpp).
 #include <nonholo/elements.hpp>
+#include <nonholo/model.hpp>
 #include <nonholo/types.hpp>
 
 #include <vector>
@@ -12,8 +13,15 @@ namespace nonholo::detail {
 
 // Where a row of mu comes from.
 struct ElementRow {
-  enum Kind : unsigned char { Knife, HitchX, HitchY } kind;
-  int element;  // index into knife_edges or hitches
+  enum Kind : unsigned char { Knife, HitchX, HitchY, BodyAxis, SpaceAxis, Ball, Disk, Rod } kind;
+  int element;  // index into the element's list (knife_edges, hitches, body_axes, ...)
+  // The row's place in its element: a ball's and a disk's rows 0 (x), 1 (y), 2 (height).
+  unsigned char part = 0;
+  // Whether the row is the gradient of a gap (hitches, a ball's and a disk's height, rods).
+  bool holonomic() const {
+    return kind == HitchX || kind == HitchY || kind == Rod || ((kind == Ball || kind == Disk) && part == 2);
+  }
+  bool rigid() const { return kind >= BodyAxis; }  // on rigid bodies (rigid/elements.cpp); Rod: on centres
 };
 
 // One body of a chain as the fused step streams it: its inverse mass, the knife edge on it
@@ -44,9 +52,34 @@ struct ElementSet {
   std::vector<Hitch> hitches;
   std::vector<TorsionalSpring> springs;
   std::vector<Thrust> thrusts;  // sorted by body in build()
+  // On rigid bodies (and rods on any centres): rigid/elements.cpp evaluates them.
+  std::vector<BodyAxisConstraint> body_axes;
+  std::vector<SpaceAxisConstraint> space_axes;
+  std::vector<RollingBall> balls;
+  std::vector<RollingDisk> disks;
+  std::vector<Rod> rods;
+  std::vector<BodyTorque> torques;
+  std::vector<BodyForce> body_forces;
+  bool has_gravity = false;
+  double gravity = 0.0;  // g of ModelBuilder::add_gravity
   std::vector<ElementRow> rows;
   std::vector<int> value_offset;  // first value of each row (the pattern's row_ptr)
-  std::vector<int> body_offset;   // first coordinate of each body
+  std::vector<int> body_offset;   // first velocity entry of each body
+  // First configuration entry of each body; empty when every body's equals body_offset (no
+  // rigid bodies: a million-body chain keeps one array).
+  std::vector<int> body_q_offset;
+  int q_offset(int body) const { return body_q_offset.empty() ? body_offset[body] : body_q_offset[body]; }
+  // The model's rigid bodies and, per body, its index among them (-1: not rigid; empty when
+  // there are none).
+  std::vector<RigidBlock> rigid;
+  std::vector<int> rigid_of;
+  const RigidBlock& rigid_body(int body) const { return rigid[static_cast<std::size_t>(rigid_of[body])]; }
+  // The centre of a body (a rod's end): its first configuration and velocity entries and
+  // dimension (a planar body's x, y; a rigid body's translation).
+  int centre_q(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? q_offset(body) : rigid_body(body).q + 4; }
+  int centre_v(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? body_offset[body] : rigid_body(body).v + 3; }
+  int centre_dim(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? 2 : rigid_body(body).translation; }
+  bool has_rigid_forces() const { return has_gravity || !torques.empty() || !body_forces.empty(); }
 
   // The chain layout, when every body is planar with a diagonal M^-1 and the rows run body
   // by body as [knife edge of b][hitch b -> b+1 (x, y)] with springs only between
@@ -77,5 +110,12 @@ struct ElementSet {
   void gradient(ConstVecRef q, VecRef grad) const;
   void force(double t, ConstVecRef q, VecRef out) const;
 };
+
+// The rows, bias, gaps and forces of the elements on rigid bodies and of rods (rigid/elements.cpp).
+// row_values writes the row's values in the order of its columns (ModelBuilder's add_*).
+void rigid_row_values(const ElementSet& set, const ElementRow& row, const double* q, double* values);
+double rigid_row_bias(const ElementSet& set, const ElementRow& row, const double* q, const double* v);
+double rigid_row_gap(const ElementSet& set, const ElementRow& row, const double* q);  // holonomic rows
+void rigid_forces(const ElementSet& set, double t, const double* q, double* out);  // adds to out
 
 }  // namespace nonholo::detail

@@ -34,14 +34,15 @@ Status implicit_restart(const Model& model, ImplicitWorkspace& ws, ConstVecRef q
   const double half = 0.5 * h;
   auto apply_minv = [&ws](ConstVecRef x, VecRef y) { y = ws.metric_llt.solve(x); };
   ws.mode_c = ws.p_next - half * ws.force;  // p_-
-  const double target = arriving_energy(model, q, ws.mode_c, h, apply_minv, ws.scratch);
+  const double target = arriving_energy(model, q, ws.mode_c, apply_minv, ws.scratch, flat_previous_potential(model, q, h));
   // p_-(s) = a + s p~ + s^2 c: a = -(h/2)(f + mu^T lambda_f), c = -(h/2) mu^T lambda_b.
   ws.mode_a.noalias() = ws.mu.transpose() * ws.lambda_f;
   ws.mode_a = -half * (ws.mode_a + ws.force);
   ws.mode_c.noalias() = ws.mu.transpose() * ws.lambda_b;
   ws.mode_c *= -half;
   double s = 1.0, plain = 0.0;
-  if (!scale_keeping_energy(model, q, ws.mode_a, ws.p_tilde, ws.mode_c, h, target, apply_minv, ws.scratch, ws.y, s,
+  if (!scale_keeping_energy(model, q, ws.mode_a, ws.p_tilde, ws.mode_c, target, apply_minv, ws.scratch, ws.y,
+                            flat_previous_potential(model, q, h), s,
                             plain))
     return ws.fail(Status::RestartFailed,
                    "no rescale of p~ keeps the post-momentum energy %.17g (energy change of the plain restart "

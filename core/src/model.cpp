@@ -3,6 +3,7 @@
 #include <mutex>
 
 #include "element_set.hpp"
+#include "rigid/quaternion.hpp"
 
 namespace nonholo {
 
@@ -34,6 +35,23 @@ std::string Model::describe_row(int r) const {
 }
 
 bool Model::is_chain() const { return elements_ && !elements_->chain.empty() && num_one_forms() > 0; }
+
+void Model::retract(ConstVecRef q, ConstVecRef delta, VecRef out) const {
+  if (rigid_.empty()) {
+    out = q + delta;
+    return;
+  }
+  for (const Body& b : bodies_) {
+    if (b.kind != BodyKind::Rigid) {
+      for (int i = 0; i < b.size; ++i) out[b.q_offset + i] = q[b.q_offset + i] + delta[b.offset + i];
+      continue;
+    }
+    const detail::Vec4 r(q[b.q_offset], q[b.q_offset + 1], q[b.q_offset + 2], q[b.q_offset + 3]);
+    const detail::Vec4 turned = detail::compose_normalised(r, detail::quaternion_exp(delta.segment<3>(b.offset)));
+    for (int i = 0; i < 4; ++i) out[b.q_offset + i] = turned[i];
+    for (int i = 0; i < b.translation; ++i) out[b.q_offset + 4 + i] = q[b.q_offset + 4 + i] + delta[b.offset + 3 + i];
+  }
+}
 
 void Model::applied_force(double t, ConstVecRef q, VecRef f, VecRef scratch) const {
   if (force_)

@@ -97,12 +97,19 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
       os << ", singular within round-off (a condition number of at most " << kMaxCondition << " is needed)";
     fail(os.str());
   }
-  const int first = static_cast<int>(draft_.names_.size());
-  draft_.bodies_.push_back({first, k});
-  draft_.names_.insert(draft_.names_.end(), names.begin(), names.end());
-  for (int i = 0; i < k; ++i) insert_name(first + i);
-  draft_.mass_.add_block(symmetric);
+  add_checked_body(names.data(), k, symmetric, BodyKind::General);
   return index;
+}
+
+void ModelBuilder::add_checked_body(const std::string* names, int k, const Eigen::Ref<const Eigen::MatrixXd>& block,
+                                    BodyKind kind) {
+  const int first = static_cast<int>(draft_.names_.size());
+  draft_.bodies_.push_back({draft_.mass_.size(), k, first, k, kind, 0});
+  draft_.names_.insert(draft_.names_.end(), names, names + k);
+  if (!draft_.velocity_names_.empty()) draft_.velocity_names_.insert(draft_.velocity_names_.end(), names, names + k);
+  for (int i = 0; i < k; ++i) insert_name(first + i);
+  draft_.mass_.add_block(block);
+  draft_.num_configuration_ += k;
 }
 
 void ModelBuilder::check_names(int index, const std::string* names, int k) const {
@@ -193,7 +200,7 @@ void ModelBuilder::insert_name(int coordinate) {
 int ModelBuilder::body_of_coordinate(int coordinate) const {
   const auto& bodies = draft_.bodies_;
   const auto it = std::upper_bound(bodies.begin(), bodies.end(), coordinate,
-                                   [](int c, const Body& b) { return c < b.offset; });
+                                   [](int c, const Body& b) { return c < b.q_offset; });
   return static_cast<int>(it - bodies.begin()) - 1;
 }
 
@@ -216,12 +223,93 @@ int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, doubl
   // The common case without add_body's dynamic matrices (a million bodies).
   const int index = static_cast<int>(draft_.bodies_.size());
   check_names(index, names.data(), 3);
-  const int first = static_cast<int>(draft_.names_.size());
-  draft_.bodies_.push_back({first, 3});
-  draft_.names_.insert(draft_.names_.end(), names.begin(), names.end());
-  for (int i = 0; i < 3; ++i) insert_name(first + i);
   const Eigen::Matrix3d block = Eigen::Vector3d(mass, mass, inertia).asDiagonal();
-  draft_.mass_.add_block(block);
+  add_checked_body(names.data(), 3, block, BodyKind::Planar);
+  return index;
+}
+
+int ModelBuilder::add_rigid_body(const RigidBody& rb) {
+  const int index = static_cast<int>(draft_.bodies_.size());
+  const std::string suffix = rb.name.empty() ? std::to_string(index) : rb.name;
+  auto who = [&] {
+    return "rigid body " + std::to_string(index) + (rb.name.empty() ? "" : " ('" + rb.name + "')");
+  };
+  const int d = rb.translation;
+  if (d != 0 && d != 2 && d != 3)
+    fail(who() + ": translation = " + std::to_string(d) +
+         " must be 0 (a fixed point), 2 (the centre moves in a horizontal plane) or 3 (free)");
+  if (!(rb.mass > 0.0) || !std::isfinite(rb.mass)) {
+    std::ostringstream os;
+    os << who() << ": mass m = " << rb.mass << " must be positive and finite";
+    fail(os.str());
+  }
+  const Eigen::Matrix3d& in = rb.inertia;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (!std::isfinite(in(i, j))) {
+        std::ostringstream os;
+        os << who() << ": inertia entry (" << i << ", " << j << ") is " << in(i, j);
+        fail(os.str());
+      }
+  const double scale = in.cwiseAbs().maxCoeff();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < i; ++j)
+      if (std::abs(in(i, j) - in(j, i)) > 1e-12 * scale) {
+        std::ostringstream os;
+        os.precision(17);
+        os << who() << ": inertia is not symmetric: I(" << i << ", " << j << ") = " << in(i, j) << " but I(" << j
+           << ", " << i << ") = " << in(j, i);
+        fail(os.str());
+      }
+  const Eigen::Matrix3d inertia = 0.5 * (in + in.transpose());
+  const Eigen::Vector3d moments = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia, Eigen::EigenvaluesOnly).eigenvalues();
+  if (!(moments.minCoeff() > 0.0)) {
+    std::ostringstream os;
+    os << who() << ": inertia is not positive definite (principal moments " << moments.transpose() << ")";
+    fail(os.str());
+  }
+  const double smallest = std::min(moments.minCoeff(), d > 0 ? rb.mass : moments.minCoeff());
+  const double largest = std::max(moments.maxCoeff(), d > 0 ? rb.mass : moments.maxCoeff());
+  if (!(smallest * 1e12 >= largest)) {
+    std::ostringstream os;
+    os << who() << ": mass block is too ill-conditioned for double precision: principal moments " << moments.transpose()
+       << (d > 0 ? " and mass " + std::to_string(rb.mass) : std::string()) << " span a ratio of " << largest / smallest
+       << " (above 1e12)";
+    fail(os.str());
+  }
+  std::vector<std::string> qnames{"qw" + suffix, "qx" + suffix, "qy" + suffix, "qz" + suffix};
+  std::vector<std::string> vnames{"wx" + suffix, "wy" + suffix, "wz" + suffix};
+  const char* axes[3] = {"x", "y", "z"};
+  for (int i = 0; i < d; ++i) {
+    qnames.push_back(axes[i] + suffix);
+    vnames.push_back(std::string("v") + axes[i] + suffix);
+  }
+  check_names(index, qnames.data(), 4 + d);
+
+  Eigen::MatrixXd block = Eigen::MatrixXd::Zero(3 + d, 3 + d);
+  block.topLeftCorner<3, 3>() = inertia;
+  for (int i = 0; i < d; ++i) block(3 + i, 3 + i) = rb.mass;
+  Model& m = draft_;
+  if (m.velocity_names_.empty()) m.velocity_names_ = m.names_;  // the bodies before: the same names
+  const int q_first = static_cast<int>(m.names_.size()), v_first = m.mass_.size();
+  m.bodies_.push_back({v_first, 3 + d, q_first, 4 + d, BodyKind::Rigid, d});
+  m.names_.insert(m.names_.end(), qnames.begin(), qnames.end());
+  m.velocity_names_.insert(m.velocity_names_.end(), vnames.begin(), vnames.end());
+  for (int i = 0; i < 4 + d; ++i) insert_name(q_first + i);
+  m.mass_.add_block(block);
+  m.num_configuration_ += 4 + d;
+  RigidBlock r;
+  r.body = index;
+  r.q = q_first;
+  r.v = v_first;
+  r.translation = d;
+  r.mass = rb.mass;
+  r.inertia = inertia;
+  r.inverse_inertia = inertia.inverse();
+  r.inverse_inertia = (0.5 * (r.inverse_inertia + r.inverse_inertia.transpose())).eval();
+  r.isotropic = inertia(0, 1) == 0.0 && inertia(0, 2) == 0.0 && inertia(1, 2) == 0.0 && inertia(0, 0) == inertia(1, 1) &&
+                inertia(1, 1) == inertia(2, 2);
+  m.rigid_.push_back(r);
   return index;
 }
 
@@ -266,10 +354,39 @@ int ModelBuilder::planar_body(int body, const char* element) const {
     fail(std::string(element) + ": body " + std::to_string(body) + " is out of range (the model has " +
          std::to_string(count) + " bodies so far; add the bodies first)");
   const Body& b = draft_.bodies_[body];
+  if (b.kind == BodyKind::Rigid)
+    fail(std::string(element) + ": body " + std::to_string(body) +
+         " is a 3-D rigid body; this element acts on planar bodies (x, y, theta)");
   if (b.size != 3)
     fail(std::string(element) + ": body " + std::to_string(body) + " has " + std::to_string(b.size) +
          " coordinates; elements act on planar bodies (x, y, theta)");
   return b.offset;
+}
+
+const Body& ModelBuilder::rigid_body(int body, const char* element) const {
+  const int count = static_cast<int>(draft_.bodies_.size());
+  if (body < 0 || body >= count)
+    fail(std::string(element) + ": body " + std::to_string(body) + " is out of range (the model has " +
+         std::to_string(count) + " bodies so far; add the bodies first)");
+  const Body& b = draft_.bodies_[body];
+  if (b.kind != BodyKind::Rigid)
+    fail(std::string(element) + ": body " + std::to_string(body) +
+         " is not a 3-D rigid body (add it with add_rigid_body)");
+  return b;
+}
+
+int ModelBuilder::centre_dimension(int body, const char* element) const {
+  const int count = static_cast<int>(draft_.bodies_.size());
+  if (body < 0 || body >= count)
+    fail(std::string(element) + ": body " + std::to_string(body) + " is out of range (the model has " +
+         std::to_string(count) + " bodies so far; add the bodies first)");
+  const Body& b = draft_.bodies_[body];
+  if (b.kind == BodyKind::Planar) return 2;
+  if (b.kind == BodyKind::Rigid && b.translation >= 2) return b.translation;
+  fail(std::string(element) + ": body " + std::to_string(body) +
+       (b.kind == BodyKind::Rigid ? " is a rigid body with a fixed centre (translation 0)"
+                                  : " is a general body (add_body): its centre is not known") +
+       "; a rod joins the centres of planar bodies or of rigid bodies with translation 2 or 3");
 }
 
 namespace {
@@ -331,6 +448,144 @@ void ModelBuilder::add_thrust(Thrust thrust) {
   elements().thrusts.push_back(std::move(thrust));
 }
 
+namespace {
+void check_axis(const char* element, const Eigen::Vector3d& axis) {
+  if (!std::isfinite(axis.x()) || !std::isfinite(axis.y()) || !std::isfinite(axis.z()) || !(axis.norm() > 0.0)) {
+    std::ostringstream os;
+    os << element << ": axis (" << axis.transpose() << ") must be finite and nonzero";
+    fail(os.str());
+  }
+}
+void check_length(const char* element, const char* what, double value) {
+  if (!(value > 0.0) || !std::isfinite(value)) {
+    std::ostringstream os;
+    os << element << ": " << what << " = " << value << " must be positive and finite";
+    fail(os.str());
+  }
+}
+// "constraints[3] (rolling ball on body 2)" labels its rows "... 2, x)", ", y)" and ", height)".
+std::string part_label(const std::string& label, const char* part) {
+  if (label.empty()) return label;
+  if (label.back() == ')') return label.substr(0, label.size() - 1) + ", " + part + ")";
+  return label + ", " + part;
+}
+}  // namespace
+
+int ModelBuilder::add_body_axis_constraint(const BodyAxisConstraint& c, std::string label) {
+  const Body& b = rigid_body(c.body, "body-axis constraint");
+  check_axis("body-axis constraint", c.axis);
+  auto& set = elements();
+  set.body_axes.push_back(c);
+  set.rows.push_back({detail::ElementRow::BodyAxis, static_cast<int>(set.body_axes.size()) - 1});
+  const int columns[3] = {b.offset, b.offset + 1, b.offset + 2};
+  return add_row(columns, 3, std::move(label));
+}
+
+int ModelBuilder::add_space_axis_constraint(const SpaceAxisConstraint& c, std::string label) {
+  const Body& b = rigid_body(c.body, "space-axis constraint");
+  check_axis("space-axis constraint", c.axis);
+  auto& set = elements();
+  set.space_axes.push_back(c);
+  set.rows.push_back({detail::ElementRow::SpaceAxis, static_cast<int>(set.space_axes.size()) - 1});
+  const int columns[3] = {b.offset, b.offset + 1, b.offset + 2};
+  return add_row(columns, 3, std::move(label));
+}
+
+int ModelBuilder::add_rolling_ball(const RollingBall& ball, std::string label) {
+  const Body& b = rigid_body(ball.body, "rolling ball");
+  if (b.translation < 2)
+    fail("rolling ball: body " + std::to_string(ball.body) +
+         " has translation 0; a rolling ball's centre moves (translation 2 or 3)");
+  check_length("rolling ball", "radius", ball.radius);
+  auto& set = elements();
+  set.balls.push_back(ball);
+  const int index = static_cast<int>(set.balls.size()) - 1;
+  const int o = b.offset;
+  const int x[4] = {o, o + 1, o + 2, o + 3}, y[4] = {o, o + 1, o + 2, o + 4};
+  set.rows.push_back({detail::ElementRow::Ball, index, 0});
+  const int first = add_row(x, 4, part_label(label, "x"));
+  set.rows.push_back({detail::ElementRow::Ball, index, 1});
+  add_row(y, 4, part_label(label, "y"));
+  if (b.translation == 3) {
+    set.rows.push_back({detail::ElementRow::Ball, index, 2});
+    const int z[1] = {o + 5};
+    draft_.holonomic_rows_.push_back(add_row(z, 1, part_label(label, "height")));
+  }
+  return first;
+}
+
+int ModelBuilder::add_rolling_disk(const RollingDisk& disk, std::string label) {
+  const Body& b = rigid_body(disk.body, "rolling disk");
+  if (b.translation != 3)
+    fail("rolling disk: body " + std::to_string(disk.body) + " has translation " + std::to_string(b.translation) +
+         "; a rolling disk's centre rises and falls as it tilts (translation 3)");
+  check_length("rolling disk", "radius", disk.radius);
+  auto& set = elements();
+  set.disks.push_back(disk);
+  const int index = static_cast<int>(set.disks.size()) - 1;
+  const int o = b.offset;
+  const char* parts[3] = {"x", "y", "height"};
+  int first = -1;
+  for (int i = 0; i < 3; ++i) {
+    set.rows.push_back({detail::ElementRow::Disk, index, static_cast<unsigned char>(i)});
+    const int columns[4] = {o, o + 1, o + 2, o + 3 + i};
+    const int row = add_row(columns, 4, part_label(label, parts[i]));
+    if (i == 0) first = row;
+    if (i == 2) draft_.holonomic_rows_.push_back(row);
+  }
+  return first;
+}
+
+int ModelBuilder::add_rod(const Rod& rod, std::string label) {
+  const int d1 = centre_dimension(rod.first, "rod"), d2 = centre_dimension(rod.second, "rod");
+  if (rod.first == rod.second) fail("rod: joins body " + std::to_string(rod.first) + " to itself");
+  if (d1 != d2)
+    fail("rod: body " + std::to_string(rod.first) + "'s centre moves in " + std::to_string(d1) + "-D, body " +
+         std::to_string(rod.second) + "'s in " + std::to_string(d2) + "-D: a rod joins centres of the same dimension");
+  check_length("rod", "length", rod.length);
+  auto& set = elements();
+  set.rods.push_back(rod);
+  set.rows.push_back({detail::ElementRow::Rod, static_cast<int>(set.rods.size()) - 1});
+  // Its columns are the two centres (a planar body's x, y; a rigid body's translation).
+  const auto centre = [&](int body) {
+    const Body& b = draft_.bodies_[body];
+    return b.kind == BodyKind::Rigid ? b.offset + 3 : b.offset;
+  };
+  int columns[6];
+  for (int i = 0; i < d1; ++i) {
+    columns[i] = centre(rod.first) + i;
+    columns[d1 + i] = centre(rod.second) + i;
+  }
+  const int row = add_row(columns, 2 * d1, std::move(label));
+  draft_.holonomic_rows_.push_back(row);
+  return row;
+}
+
+void ModelBuilder::add_gravity(double g) {
+  if (!std::isfinite(g)) {
+    std::ostringstream os;
+    os << "gravity: g = " << g << " must be finite";
+    fail(os.str());
+  }
+  auto& set = elements();
+  if (set.has_gravity) fail("gravity: added twice (it acts on every rigid body with translation 3)");
+  set.has_gravity = true;
+  set.gravity = g;
+}
+
+void ModelBuilder::add_body_torque(BodyTorque torque) {
+  rigid_body(torque.body, "body torque");
+  if (!torque.torque) fail("body torque on body " + std::to_string(torque.body) + ": the function is empty");
+  elements().torques.push_back(std::move(torque));
+}
+
+void ModelBuilder::add_body_force(BodyForce force) {
+  const Body& b = rigid_body(force.body, "body force");
+  if (b.translation == 0) fail("body force on body " + std::to_string(force.body) + ": its centre is fixed (translation 0)");
+  if (!force.force) fail("body force on body " + std::to_string(force.body) + ": the function is empty");
+  elements().body_forces.push_back(std::move(force));
+}
+
 // Hands the elements' callbacks to the model and derives the chain layout (element_set.hpp).
 void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementSet> set) const {
   if (!set) return;
@@ -346,17 +601,28 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
          "bias and gaps: do not also give one_form_values, one_form_bias or gap");
   if (!set->springs.empty() && model.potential_)
     fail("torsional springs make the model's potential: do not also give potential()");
-  if (!set->thrusts.empty() && model.force_)
-    fail("thrusts make the model's external force: do not also give external_force()");
+  if ((!set->thrusts.empty() || set->has_rigid_forces()) && model.force_)
+    fail("thrusts, body torques and forces and gravity make the model's external force: do not also give "
+         "external_force()");
+  if (set->has_gravity && std::none_of(model.rigid_.begin(), model.rigid_.end(),
+                                       [](const RigidBlock& r) { return r.translation == 3; }))
+    fail("gravity: no rigid body of the model moves in 3-D (translation 3): it would act on nothing");
   set->value_offset.assign(model.pattern_.row_ptr.begin(), model.pattern_.row_ptr.end() - 1);
   for (const Body& b : model.bodies_) set->body_offset.push_back(b.offset);
+  if (model.has_rigid_bodies()) {
+    set->rigid = model.rigid_;
+    set->rigid_of.assign(model.bodies_.size(), -1);
+    for (std::size_t i = 0; i < model.rigid_.size(); ++i) set->rigid_of[static_cast<std::size_t>(model.rigid_[i].body)] = static_cast<int>(i);
+    for (const Body& b : model.bodies_) set->body_q_offset.push_back(b.q_offset);
+  }
   std::stable_sort(set->thrusts.begin(), set->thrusts.end(),
                    [](const Thrust& a, const Thrust& b) { return a.body < b.body; });
 
   // The chain layout: planar bodies in order, a diagonal M^-1, rows body by body.
   const int bodies = model.num_bodies();
-  bool chain = model.inverse_mass_.is_diagonal();
+  bool chain = model.inverse_mass_.is_diagonal() && !model.has_rigid_bodies();
   for (int b = 0; chain && b < bodies; ++b) chain = model.bodies_[b].size == 3 && model.bodies_[b].offset == 3 * b;
+  for (std::size_t r = 0; chain && r < element_rows; ++r) chain = !set->rows[r].rigid();
   if (chain) {
     set->chain.resize(static_cast<std::size_t>(bodies));
     const double* w = model.inverse_mass_.diagonal();
@@ -423,7 +689,8 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
     model.potential_ = [e](ConstVecRef q) { return e->potential(q); };
     model.gradient_ = [e](ConstVecRef q, VecRef g) { e->gradient(q, g); };
   }
-  if (!e->thrusts.empty()) model.force_ = [e](double t, ConstVecRef q, VecRef f) { e->force(t, q, f); };
+  if (!e->thrusts.empty() || e->has_rigid_forces())
+    model.force_ = [e](double t, ConstVecRef q, VecRef f) { e->force(t, q, f); };
   model.elements_ = e;
 }
 
@@ -466,6 +733,20 @@ ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap ma
   return *this;
 }
 
+ModelBuilder& ModelBuilder::symmetry(const std::string& name, SymmetryGenerator generator) {
+  if (!generator) fail("symmetry '" + name + "': the generator is empty");
+  // J = <xi(q), p>, evaluated into a buffer of the calling thread (sized once per thread).
+  MomentumMap map = [generator](ConstVecRef q, ConstVecRef p) {
+    thread_local Vector xi;
+    if (xi.size() != p.size()) xi.resize(p.size());
+    generator(q, xi);
+    return xi.dot(p);
+  };
+  momentum_map(name, std::move(map));
+  draft_.momentum_maps_.back().generator = std::move(generator);
+  return *this;
+}
+
 ModelBuilder& ModelBuilder::configuration_metric(MetricValue value, MetricDerivative derivative) {
   if (!value || !derivative) fail("configuration_metric: give both the metric and its derivative");
   draft_.metric_ = std::move(value);
@@ -491,8 +772,11 @@ Model ModelBuilder::build() && {
 
 Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elements) const {
   if (model.bodies_.empty()) fail("the model has no bodies");
-  const int n = static_cast<int>(model.names_.size());
-  const auto& names = model.names_;
+  if (model.has_rigid_bodies() && model.metric_)
+    fail("a configuration-dependent metric (configuration_metric) and 3-D rigid bodies cannot be combined: the "
+         "implicit general form integrates planar coordinates only");
+  const int n = model.mass_.size();  // columns are velocity entries
+  const auto& names = model.velocity_names();
   const int rows = static_cast<int>(model.pattern_.row_ptr.size()) - 1;
   if (!model.row_labels_.empty()) model.row_labels_.resize(static_cast<std::size_t>(rows));
   model.inverse_mass_ = model.mass_.inverse();
@@ -510,7 +794,8 @@ Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elem
       if (c < 0 || c >= n) {
         std::ostringstream os;
         os << row() << ": column " << c << " is out of range (the model has " << n
-           << " coordinates, columns 0 to " << n - 1 << ")";
+           << (model.has_rigid_bodies() ? " velocity coordinates" : " coordinates") << ", columns 0 to " << n - 1
+           << ")";
         fail(os.str());
       }
     }

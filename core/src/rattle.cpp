@@ -25,6 +25,7 @@
 #include "option_checks.hpp"
 #include "rattle_internal.hpp"
 #include "restart_internal.hpp"
+#include "rigid/drift.hpp"
 
 namespace nonholo {
 
@@ -36,6 +37,23 @@ HitchMode hitch_mode_from_string(const std::string& name) {
   if (name == "oneform") return HitchMode::OneForm;
   if (name == "holonomic") return HitchMode::Holonomic;
   throw std::invalid_argument("unknown hitch mode '" + name + "' (valid: oneform, holonomic)");
+}
+
+const char* to_string(RotationLagrangian rotation) {
+  switch (rotation) {
+    case RotationLagrangian::MoserVeselov: return "moser-veselov";
+    case RotationLagrangian::MoserVeselovF: return "moser-veselov-f";
+    case RotationLagrangian::Exponential: return "exponential";
+  }
+  return "unknown";
+}
+
+RotationLagrangian rotation_from_string(const std::string& name) {
+  for (RotationLagrangian r :
+       {RotationLagrangian::MoserVeselov, RotationLagrangian::MoserVeselovF, RotationLagrangian::Exponential})
+    if (name == to_string(r)) return r;
+  throw std::invalid_argument("unknown rotation Lagrangian '" + name +
+                              "' (valid: moser-veselov, moser-veselov-f, exponential)");
 }
 
 namespace detail {
@@ -162,6 +180,10 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
     ws.gap_multiplier += ws.scratch_m;
     model.mu_transpose_times(ws.mu_values.data(), x, ws.scratch_n.data());
     ws.p_half += (0.5 * h) * ws.scratch_n;
+    if (model.has_rigid_bodies()) {  // the drift is not linear in p_half: take it again
+      if ((status = detail::rigid_drift(model, ws, s.q, h, o.rotation, s.t)) != Status::Ok) return status;
+      continue;
+    }
     model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
     ws.q_next += (0.5 * h * h) * ws.scratch_n2;
   }
@@ -273,23 +295,32 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
     if (status != Status::Ok) return status;
     return finish_step(model, ws, s, options, h, t_next, watch, check, true, knife_sweep(model, ws, holonomic));
   }
-  // Half kick with the forces at t_k, then drift.
-  kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
+  // Half kick with the forces at t_k, then drift (with rigid bodies per body, rigid/drift.cpp:
+  // the momentum arrives at q_{k+1} as p_arrive, turned by W^T; velocity = M^-1 of it).
+  const bool rigid = model.has_rigid_bodies();
+  if (rigid) {
+    ws.p_half = s.p + half * s.force;
+    const Status status = detail::rigid_drift(model, ws, s.q, h, options.rotation, s.t);
+    if (status != Status::Ok) return status;
+  } else {
+    kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
+  }
+  const Vector& carried = rigid ? ws.p_arrive : ws.p_half;
   if (holonomic) {
     const Status status = enforce_gaps(model, ws, s, options, h);
     if (status != Status::Ok) return status;
-    minv.multiply(ws.p_half.data(), ws.velocity.data());
+    if (!rigid) minv.multiply(ws.p_half.data(), ws.velocity.data());
   }
   // Unconstrained half kick with the applied force at t_{k+1}.
   if (model.has_applied_force()) {
     model.applied_force(t_next, ws.q_next, ws.applied, ws.scratch_n);
-    ws.p_hat = ws.p_half + half * ws.applied;
+    ws.p_hat = carried + half * ws.applied;
     minv.multiply(ws.p_hat.data(), ws.velocity.data());
   } else {
-    // p^ = p_half: velocity already holds M^-1 p^; applied stays zero
+    // p^ = p_half (p_arrive): velocity already holds M^-1 p^; applied stays zero
   }
   const bool forced = model.has_applied_force();
-  const double* ph = forced ? ws.p_hat.data() : ws.p_half.data();
+  const double* ph = forced ? ws.p_hat.data() : carried.data();
 
   // Constraint half kick: the multipliers that put p~_{k+1} in the annihilator of D.
   if (m > 0) {
@@ -305,7 +336,14 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
     double* pn = ws.p_next.data();
     const double* fa = ws.applied.data();
     const double* qn = ws.q_next.data();
-    if (forced) {
+    if (rigid) {  // q has n_q entries, not n
+      for (int i = 0; i < n; ++i) {
+        pn[i] = ph[i] + half * fn[i];
+        if (forced) fn[i] += fa[i];
+        check += pn[i] + fn[i];
+      }
+      check += ws.q_next.sum();
+    } else if (forced) {
       for (int i = 0; i < n; ++i) {
         pn[i] = ph[i] + half * fn[i];
         fn[i] += fa[i];
@@ -319,7 +357,7 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
     }
   } else {
     ws.force_next = ws.applied;
-    ws.p_next = forced ? ws.p_hat : ws.p_half;
+    ws.p_next = forced ? ws.p_hat : carried;
     check = ws.q_next.sum() + ws.p_next.sum() + ws.force_next.sum();
   }
   return finish_step(model, ws, s, options, h, t_next, watch, check, false, false);
@@ -359,18 +397,18 @@ Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOpti
 }  // namespace detail
 
 Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& options) {
-  const int n = model.num_coordinates(), m = model.num_one_forms();
+  const int n = model.num_velocities(), nq = model.num_configuration(), m = model.num_one_forms();
   if (&ws.model() != &model)
     return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");
   const double h = options.h;
   if (!(h > 0.0) || !std::isfinite(h))
     return ws.fail(Status::InvalidStepSize, "step size h = %g must be positive and finite", h);
-  if (s.q.size() != n || s.p.size() != n || s.force.size() != n || s.lambda.size() != m)
+  if (s.q.size() != nq || s.p.size() != n || s.force.size() != n || s.lambda.size() != m)
     return ws.fail(Status::SizeMismatch,
                    "state sizes q %ld, p %ld, force %ld, lambda %ld; the model needs %d, %d, %d, %d: "
                    "create the state for this model (start_from_velocity)",
                    static_cast<long>(s.q.size()), static_cast<long>(s.p.size()),
-                   static_cast<long>(s.force.size()), static_cast<long>(s.lambda.size()), n, n, n, m);
+                   static_cast<long>(s.force.size()), static_cast<long>(s.lambda.size()), nq, n, n, m);
   if (model.has_configuration_metric())
     return ws.fail(Status::MethodNotApplicable,
                    "the explicit step needs a constant metric; use implicit_step (implicit.hpp)");

@@ -16,6 +16,7 @@
 
 #include "callback_guard.hpp"
 #include "restart_internal.hpp"
+#include "rigid/drift.hpp"
 
 namespace nonholo {
 namespace detail {
@@ -43,19 +44,25 @@ Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, Con
   // mu(q) is cached (the step that arrived at q left it, or its sin/cos for a fused step).
   if (const Status status = ws.evaluate_one_forms(q); status != Status::Ok) return status;
   const auto& maps = model.momentum_maps();
-  const int n = model.num_coordinates(), r = static_cast<int>(maps.size());
+  const int n = model.num_velocities(), r = static_cast<int>(maps.size());
   Eigen::MatrixXd& xi = ws.map_directions;
   ws.map_probe.setZero();
   for (int j = 0; j < r; ++j) {
-    const double offset = maps[j].map(q, ws.map_probe);
     double scale = 0.0;
-    for (int i = 0; i < n; ++i) {
-      ws.map_probe[i] = 1.0;
-      xi(i, j) = maps[j].map(q, ws.map_probe) - offset;
-      ws.map_probe[i] = 0.0;
-      scale += std::abs(xi(i, j) * p[i]);
+    if (maps[j].generator) {  // a declared symmetry: xi itself, J = <xi, p>
+      maps[j].generator(q, xi.col(j));
+      for (int i = 0; i < n; ++i) scale += std::abs(xi(i, j) * p[i]);
+      ws.map_values[j] = xi.col(j).dot(p);
+    } else {  // probed: J(q, e_i) - J(q, 0)
+      const double offset = maps[j].map(q, ws.map_probe);
+      for (int i = 0; i < n; ++i) {
+        ws.map_probe[i] = 1.0;
+        xi(i, j) = maps[j].map(q, ws.map_probe) - offset;
+        ws.map_probe[i] = 0.0;
+        scale += std::abs(xi(i, j) * p[i]);
+      }
+      ws.map_values[j] = maps[j].map(q, p);
     }
-    ws.map_values[j] = maps[j].map(q, p);
     ws.map_values[r + j] = scale + std::abs(ws.map_values[j]);
     if (!std::isfinite(scale) || !std::isfinite(ws.map_values[j]))
       return ws.fail(Status::RestartFailed, "momentum map '%s' is not finite at this state", maps[j].name.c_str());
@@ -103,7 +110,13 @@ Status maps_unchanged(const Model& model, Workspace& ws, ConstVecRef q, ConstVec
   const auto& list = model.momentum_maps();
   const int r = static_cast<int>(list.size());
   for (int j = 0; j < r; ++j) {
-    const double after = list[j].map(q, p_new);
+    double after = 0.0;
+    if (list[j].generator) {
+      list[j].generator(q, ws.map_probe);
+      after = ws.map_probe.dot(p_new);
+    } else {
+      after = list[j].map(q, p_new);
+    }
     if (!(std::abs(after - ws.map_values[j]) <= 64.0 * kEps * ws.map_values[r + j]))
       return ws.fail(Status::RestartFailed,
                      "momentum map '%s' would change from %.17g to %.17g: a momentum map must be "
@@ -177,7 +190,7 @@ Status continuous_multiplier_at(const Model& model, Workspace& ws, ConstVecRef q
   Status status = ws.evaluate_one_forms(q);
   if (status != Status::Ok) return status;
   minv.multiply(p.data(), ws.velocity.data());
-  status = one_form_bias(model, ws, q, ws.velocity, ws.rhs);
+  status = constraint_bias(model, ws, q, ws.velocity, ws.rhs);
   if (status != Status::Ok) return status;
   if (model.has_applied_force()) {
     minv.multiply(applied.data(), ws.scratch_n.data());
@@ -212,10 +225,20 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   Status status = Status::Ok;
 
   auto apply_minv = [&minv](ConstVecRef x, VecRef y) { minv.multiply(x.data(), y.data()); };
+  // V(q_{k-1}) for the arriving p_- (v_- = M^-1 p_-): q_k - h v_- on flat models, the step
+  // back through the Legendre transforms with rigid bodies.
+  const RotationLagrangian rotation = ws.rotation();
+  auto previous = [&](ConstVecRef p_minus, VecRef v_minus) {
+    if (!model.has_rigid_bodies()) {
+      v_minus = q - h * v_minus;
+      return model.potential(v_minus);
+    }
+    return previous_potential(model, rotation, h, q, p_minus, v_minus, ws.scratch_q);
+  };
   // The energy to keep: that of the arriving post-momentum, with the potential averaged over
-  // q_k and q_{k-1} = q_k - h M^-1 p_- (what diagnose() reports).
+  // q_k and q_{k-1} (what diagnose() reports).
   ws.scratch_n2 = p - half * force;
-  const double target = arriving_energy(model, q, ws.scratch_n2, h, apply_minv, ws.scratch_n);
+  const double target = arriving_energy(model, q, ws.scratch_n2, apply_minv, ws.scratch_n, previous);
 
   // lambda_s = lambda_F + lambda_B(p): split off the force's part, which does not scale.
   if (forced) {
@@ -231,10 +254,10 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   if (maps) {
     if ((status = split_by_maps(model, ws, q, p)) != Status::Ok) return status;
     // Polarisation of the bias: B(v_J + s v_r) = B(v_J) + s B_1 + s^2 B_2 from s = 0, 1, -1.
-    if ((status = one_form_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
+    if ((status = constraint_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
     if ((status = solve_negated(ws, ws.rhs, ws.map_lambda0.data())) != Status::Ok) return status;
     ws.scratch_n = 2.0 * ws.scratch_n - ws.velocity;  // v_J - v_r
-    if ((status = one_form_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
+    if ((status = constraint_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
     if ((status = solve_negated(ws, ws.rhs, ws.scratch_m.data())) != Status::Ok) return status;
     ws.map_lambda1 = 0.5 * (ws.lambda_s - ws.scratch_m);
     ws.lambda_s = 0.5 * (ws.lambda_s + ws.scratch_m) - ws.map_lambda0;  // lambda_2
@@ -259,7 +282,7 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   c *= -half;
 
   double s = 1.0, plain = 0.0;
-  if (!scale_keeping_energy(model, q, a, b, c, h, target, apply_minv, ws.scratch_n, ws.scratch_n2, s, plain))
+  if (!scale_keeping_energy(model, q, a, b, c, target, apply_minv, ws.scratch_n, ws.scratch_n2, previous, s, plain))
     return ws.fail(Status::RestartFailed,
                    "no rescale of p~ keeps the post-momentum energy %.17g (energy change of the plain "
                    "restart %.3g): restart less often or not at all (RattleOptions::restart, --restart)",

@@ -121,26 +121,35 @@ bool find_scale(G&& g, double g1, double slope, double floor, double& s_out) {
 }
 
 // The energy an arriving post-momentum p_- carries at q: (1/2) p_-^T M^-1 p_-, plus with a
-// potential (V(q - h M^-1 p_-) + V(q)) / 2, the averaged potential diagnose() reports.
-// minv(x, y) sets y = M^-1 x; w: n entries of scratch.
-template <class Minv>
-double arriving_energy(const Model& model, ConstVecRef q, ConstVecRef p_minus, double h, Minv&& minv, VecRef w) {
+// potential (V(q_{k-1}) + V(q)) / 2, the averaged potential diagnose() reports.
+// minv(x, y) sets y = M^-1 x; w: n entries of scratch; previous(p_-, v_-) returns V(q_{k-1})
+// given p_- and v_- = M^-1 p_- (and may overwrite v_-): V(q - h v_-) on flat models
+// (flat_previous_potential).
+template <class Minv, class Previous>
+double arriving_energy(const Model& model, ConstVecRef q, ConstVecRef p_minus, Minv&& minv, VecRef w,
+                       Previous&& previous) {
   minv(p_minus, w);
   double e = 0.5 * p_minus.dot(w);
-  if (model.has_potential()) {
-    w = q - h * w;
-    e += 0.5 * (model.potential(w) + model.potential(q));
-  }
+  if (model.has_potential()) e += 0.5 * (previous(p_minus, w) + model.potential(q));
   return e;
+}
+
+// previous() of arriving_energy for a model without rigid bodies: V(q - h v_-), in v_-'s buffer.
+inline auto flat_previous_potential(const Model& model, ConstVecRef q, double h) {
+  return [&model, q, h](ConstVecRef, VecRef v_minus) {
+    v_minus = q - h * v_minus;
+    return model.potential(v_minus);
+  };
 }
 
 // The scale s next to 1 that gives the arriving post-momentum p_-(s) = a + s b + s^2 c the
 // energy `target` (arriving_energy): (1/2)|p_-(s)|^2_{M^-1} is a quartic in s, the potential
-// is evaluated at each trial. False when no positive scale does it; `plain` is then the
+// is evaluated at each trial (through previous(), as arriving_energy). False when no positive scale does it; `plain` is then the
 // energy change at s = 1. w1, w2: n entries of scratch each (a, b, c must not be them).
-template <class Minv>
-bool scale_keeping_energy(const Model& model, ConstVecRef q, ConstVecRef a, ConstVecRef b, ConstVecRef c, double h,
-                          double target, Minv&& minv, VecRef w1, VecRef w2, double& s, double& plain) {
+template <class Minv, class Previous>
+bool scale_keeping_energy(const Model& model, ConstVecRef q, ConstVecRef a, ConstVecRef b, ConstVecRef c,
+                          double target, Minv&& minv, VecRef w1, VecRef w2, Previous&& previous, double& s,
+                          double& plain) {
   minv(a, w1);
   const double aa = a.dot(w1), ab = b.dot(w1), ac = c.dot(w1);
   minv(c, w1);
@@ -155,8 +164,7 @@ bool scale_keeping_energy(const Model& model, ConstVecRef q, ConstVecRef a, Cons
     if (potential) {
       w1 = a + x * b + (x * x) * c;
       minv(w1, w2);
-      w2 = q - h * w2;
-      e += 0.5 * (model.potential(w2) + v_now);
+      e += 0.5 * (previous(w1, w2) + v_now);
     }
     return e - target;
   };

@@ -32,10 +32,10 @@ StiffnessEstimate stiffest_frequency(const Model& model, Workspace& ws, double t
                                      double min_pivot_ratio) {
   StiffnessEstimate e;
   if (!model.has_applied_force()) return e;
-  const int n = model.num_coordinates();
+  const int n = model.num_velocities();
   if (model.num_one_forms() > 0 && ws.factorize_at(q, min_pivot_ratio) != Status::Ok)
     throw std::invalid_argument(std::string("stiffest_frequency: ") + ws.message());
-  Vector x(n), y(n), qe(n), f_plus(n), f_minus(n), scratch(n), scratch2(n);
+  Vector x(n), y(n), qe(model.num_configuration()), f_plus(n), f_minus(n), scratch(n), scratch2(n);
   if (previous && previous->direction.size() == n) {
     x = previous->direction;
   } else {  // a fixed start with a component along every direction (no randomness: reproducible)
@@ -50,10 +50,19 @@ StiffnessEstimate stiffest_frequency(const Model& model, Workspace& ws, double t
   double ratio = 0.0;
   for (int it = 1; it <= max_iterations; ++it) {
     const double eps = 1e-6 * scale / std::max(x.lpNorm<Eigen::Infinity>(), 1e-300);
-    qe = q + eps * x;
-    model.applied_force(t, qe, f_plus, scratch);
-    qe = q - eps * x;
-    model.applied_force(t, qe, f_minus, scratch);
+    if (model.has_rigid_bodies()) {  // q moved along +-eps x (a velocity-space direction)
+      scratch2 = eps * x;
+      model.retract(q, scratch2, qe);
+      model.applied_force(t, qe, f_plus, scratch);
+      scratch2 = -eps * x;
+      model.retract(q, scratch2, qe);
+      model.applied_force(t, qe, f_minus, scratch);
+    } else {
+      qe = q + eps * x;
+      model.applied_force(t, qe, f_plus, scratch);
+      qe = q - eps * x;
+      model.applied_force(t, qe, f_minus, scratch);
+    }
     // y = M^-1 K x with K x = -(f(q + eps x) - f(q - eps x)) / (2 eps), then projected.
     scratch2 = (f_minus - f_plus) / (2.0 * eps);
     model.inverse_mass().multiply(scratch2.data(), y.data());

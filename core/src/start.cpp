@@ -2,6 +2,8 @@
 
 #include <nonholo/dynamics.hpp>
 
+#include "rigid/drift.hpp"
+
 #include <cmath>
 #include <limits>
 #include <string>
@@ -11,19 +13,43 @@
 namespace nonholo {
 namespace {
 
-void check_vector(const char* what, ConstVecRef v, const Model& model) {
-  const int n = model.num_coordinates();
+// A configuration (n_q entries, `configuration`) or a velocity (n_v): its size and finiteness.
+void check_vector(const char* what, ConstVecRef v, const Model& model, bool configuration) {
+  const int n = configuration ? model.num_configuration() : model.num_velocities();
+  const auto& names = configuration ? model.coordinate_names() : model.velocity_names();
   if (v.size() != n) {
     std::ostringstream os;
-    os << "start: expected " << n << " entries in " << what << " (one per coordinate), got " << v.size();
+    os << "start: expected " << n << " entries in " << what << " (one per "
+       << (model.has_rigid_bodies() ? (configuration ? "configuration entry" : "velocity entry") : "coordinate")
+       << "), got " << v.size();
     throw std::invalid_argument(os.str());
   }
   for (int i = 0; i < n; ++i)
     if (!std::isfinite(v[i])) {
       std::ostringstream os;
-      os << "start: " << what << "[" << i << "] (" << model.coordinate_names()[i] << ") is " << v[i];
+      os << "start: " << what << "[" << i << "] (" << names[i] << ") is " << v[i];
       throw std::invalid_argument(os.str());
     }
+}
+
+// A configuration with each rigid body's quaternion normalised: refused unless its norm is
+// within 1e-6 of 1 (a rotation given by mistake, or not at all, is not silently made one).
+Vector unit_quaternions(const char* what, ConstVecRef q, const Model& model) {
+  Vector out = q;
+  for (const RigidBlock& r : model.rigid_bodies()) {
+    const double norm = q.segment<4>(r.q).norm();
+    if (!(std::abs(norm - 1.0) <= 1e-6)) {
+      const auto& names = model.coordinate_names();
+      std::ostringstream os;
+      os.precision(17);
+      os << "start: " << what << ": the quaternion of rigid body " << r.body << " (" << names[r.q] << ", "
+         << names[r.q + 1] << ", " << names[r.q + 2] << ", " << names[r.q + 3] << ") has norm " << norm
+         << "; give a unit quaternion (w, x, y, z), for example axis_angle_quaternion(axis, angle)";
+      throw std::invalid_argument(os.str());
+    }
+    out.segment<4>(r.q) /= norm;
+  }
+  return out;
 }
 
 void check(Status status, const Workspace& ws, const char* doing) {
@@ -35,8 +61,8 @@ State allocate_state(const Model& model, double t0, ConstVecRef q0) {
   State s;
   s.t = t0;
   s.q = q0;
-  s.p.setZero(model.num_coordinates());
-  s.force.setZero(model.num_coordinates());
+  s.p.setZero(model.num_velocities());
+  s.force.setZero(model.num_velocities());
   s.lambda.setZero(model.num_one_forms());
   return s;
 }
@@ -64,8 +90,8 @@ Vector& sized_buffer(Vector& buffer, Vector& local, Eigen::Index size) {
 // outputs go to the workspace's scratch buffers (clobbered; the one-form cache is untouched).
 void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVecRef q0) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  const int n = model.num_coordinates();
-  const auto& names = model.coordinate_names();
+  const int n = model.num_velocities();
+  const auto& names = model.velocity_names();
   auto complain = [](const std::string& what) { throw std::invalid_argument("start: " + what); };
   Vector local, local2;
   if (model.num_one_forms() > 0) {
@@ -122,10 +148,11 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
 State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
                           ConstVecRef v_guess, const StartOptions& options) {
   check_time(t0);
-  check_vector("q0", q0, model);
-  check_vector("the velocity guess", v_guess, model);
-  check_callbacks_fill(model, ws, t0, q0);
-  State s = allocate_state(model, t0, q0);
+  check_vector("q0", q0, model, true);
+  check_vector("the velocity guess", v_guess, model, false);
+  const Vector q_unit = unit_quaternions("q0", q0, model);
+  check_callbacks_fill(model, ws, t0, q_unit);
+  State s = allocate_state(model, t0, q_unit);
 
   model.mass().multiply(v_guess.data(), s.p.data());
   check(project_momentum(model, ws, s.q, s.p, s.p, options.min_pivot_ratio), ws,
@@ -141,7 +168,7 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
           "computing the continuous multiplier at q0");
 
   Vector local;
-  Vector& scratch = sized_buffer(ws.scratch_n, local, model.num_coordinates());
+  Vector& scratch = sized_buffer(ws.scratch_n, local, model.num_velocities());
   if (model.has_applied_force())
     model.applied_force(t0, s.q, s.force, scratch);
   else
@@ -154,11 +181,12 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
   return s;
 }
 
-State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
-                            ConstVecRef q1, double h, double tolerance) {
+State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstVecRef q0_given,
+                            ConstVecRef q1_given, double h, double tolerance, RotationLagrangian rotation) {
   check_time(t0);
-  check_vector("q0", q0, model);
-  check_vector("q1", q1, model);
+  check_vector("q0", q0_given, model, true);
+  check_vector("q1", q1_given, model, true);
+  const Vector q0 = unit_quaternions("q0", q0_given, model), q1 = unit_quaternions("q1", q1_given, model);
   check_callbacks_fill(model, ws, t0, q0);
   if (!(h > 0.0) || !std::isfinite(h)) {
     std::ostringstream os;
@@ -166,9 +194,14 @@ State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstV
     throw std::invalid_argument(os.str());
   }
   State s = allocate_state(model, t0, q0);
-  const int n = model.num_coordinates();
-  Vector dq = (q1 - q0) / h, scratch(n);
-  model.mass().multiply(dq.data(), s.p.data());
+  const int n = model.num_velocities();
+  Vector scratch(n);
+  if (model.has_rigid_bodies()) {  // the discrete Legendre transform of (q0, q1)
+    detail::discrete_momentum(model, rotation, q0, q1, h, s.p);
+  } else {
+    Vector dq = (q1 - q0) / h;
+    model.mass().multiply(dq.data(), s.p.data());
+  }
   if (model.has_applied_force()) {
     model.applied_force(t0, s.q, s.force, scratch);
     s.p -= 0.5 * h * s.force;

@@ -24,6 +24,7 @@ const char* to_string(Status status) {
     case Status::UnstableStepSize: return "unstable-step-size";
     case Status::BlewUp: return "blew-up";
     case Status::Interrupted: return "interrupted";
+    case Status::LegendreNotSolved: return "legendre-not-solved";
   }
   return "unknown";
 }

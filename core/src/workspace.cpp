@@ -11,10 +11,15 @@
 namespace nonholo {
 
 Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : model_(&model) {
-  const int n = model.num_coordinates(), m = model.num_one_forms();
-  for (Vector* v : {&q_next, &p_half, &p_hat, &p_next, &velocity, &applied, &force_next,
-                    &scratch_n, &scratch_n2, &mu_q_})
+  const int n = model.num_velocities(), nq = model.num_configuration(), m = model.num_one_forms();
+  for (Vector* v : {&q_next, &scratch_q, &mu_q_}) v->setZero(nq);
+  for (Vector* v : {&p_half, &p_hat, &p_next, &velocity, &applied, &force_next, &scratch_n, &scratch_n2})
     v->setZero(n);
+  if (model.has_rigid_bodies()) {
+    p_arrive.setZero(n);
+    gyroscopic.setZero(n);
+    gyroscopic_m.setZero(m);
+  }
   mu_values.setZero(model.num_one_form_values());
   // The bias by central differences needs two more copies of mu (dynamics.cpp), the midpoint
   // DLA one; a model with its own bias (every element model) stepped by reflections none:
@@ -37,7 +42,7 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
     map_values.setZero(2 * maps);  // J_j, then the scale each is checked against
   }
   if (options.composed_steps) {
-    saved_q.setZero(n);
+    saved_q.setZero(nq);
     saved_p.setZero(n);
     saved_force.setZero(n);
     saved_lambda.setZero(m);
@@ -66,7 +71,7 @@ const char* Workspace::backend_name() const {
 }
 
 Status Workspace::evaluate_one_forms(ConstVecRef q) {
-  const int n = model_->num_coordinates();
+  const int n = model_->num_configuration();
   if (key_valid_ && std::memcmp(q.data(), mu_q_.data(), sizeof(double) * n) == 0) {
     if (!mu_valid_) {  // a fused step factorised C(q) without writing mu: it left sin/cos
       if (sincos_valid_)
@@ -94,7 +99,7 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
 
 bool Workspace::sincos_hold(ConstVecRef q) const {
   return sincos_valid_ && key_valid_ &&
-         std::memcmp(q.data(), mu_q_.data(), sizeof(double) * model_->num_coordinates()) == 0;
+         std::memcmp(q.data(), mu_q_.data(), sizeof(double) * model_->num_configuration()) == 0;
 }
 
 Status Workspace::report_non_finite_one_forms() {
@@ -105,7 +110,7 @@ Status Workspace::report_non_finite_one_forms() {
         return fail(Status::NonFiniteOneForms,
                     "one-form row %d%s, column %d (%s) has value %g: check the model's one-form "
                     "values at this q, or reduce the step size if the state blew up",
-                    r, row_note(r), pattern.col_idx[k], model_->coordinate_names()[pattern.col_idx[k]].c_str(),
+                    r, row_note(r), pattern.col_idx[k], model_->velocity_names()[pattern.col_idx[k]].c_str(),
                     mu_values[k]);
   return fail(Status::NonFiniteOneForms, "%s%s: the state or the one-forms are not finite: reduce the step size",
               factor_->message(), row_note(factor_->failed_row()));

@@ -129,9 +129,9 @@ Status many_steps(const PyModel& m, Workspace& ws, State& s, const RattleOptions
 
 void bind_status(py::module_& m) {
   py::enum_<Status> e(m, "Status", "What a step reports (core/include/nonholo/status.hpp); Status.Ok on success.");
-  // Named as in C++, from the library's names ("callback-failed" -> CallbackFailed); Interrupted
-  // is the last enumerator.
-  for (int i = 0; i <= static_cast<int>(Status::Interrupted); ++i) {
+  // Named as in C++, from the library's names ("callback-failed" -> CallbackFailed), up to the
+  // last enumerator (kLastStatus).
+  for (int i = 0; i <= static_cast<int>(kLastStatus); ++i) {
     const auto s = static_cast<Status>(i);
     std::string name;
     bool upper = true;

@@ -1,7 +1,9 @@
 #pragma once
 // Continuous-time quantities of DESIGN.md section 1: the bias term, the M-orthogonal
 // projection onto the annihilator of D, and the multiplier of the index-reduced equations
-//   C lambda = -(mu' qdot) - mu M^-1 f.
+//   C lambda = -(mu' qdot) - mu M^-1 (f + g),
+// g the gyroscopic force (I Omega) x Omega on each 3-D rigid body's Omega (0 elsewhere), so
+// that M vdot = f + g + mu^T lambda (velocities left-trivialised, nonholo/rigid_body.hpp).
 // Used to start the integrator consistently (start.hpp) and by reference integrators.
 #include <nonholo/model.hpp>
 #include <nonholo/status.hpp>
@@ -12,6 +14,11 @@ namespace nonholo {
 // (d/dt mu(q)) qdot: the model's analytic bias, or else a central difference of mu along
 // qdot with step cbrt(eps) (relative accuracy about 1e-10).
 Status one_form_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias);
+
+// What the multiplier's right-hand side holds that is quadratic in the velocity: the bias plus
+// mu M^-1 g(qdot) for models with rigid bodies (the bias alone otherwise). Needs mu(q) in the
+// workspace (evaluate_one_forms(q)).
+Status constraint_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias);
 
 // p_out = P* p = p - mu^T C^-1 mu M^-1 p at q: the momentum whose velocity lies in D(q) and
 // is M-closest to M^-1 p. p and p_out may alias.

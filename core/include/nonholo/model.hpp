@@ -3,10 +3,18 @@
 // blocks (a block-diagonal metric M), constraint one-forms mu(q) with a fixed sparsity
 // pattern, potential, external forces and momentum maps. Build one with ModelBuilder;
 // share it by const& across threads (its callbacks must be thread-safe).
+//
+// Sizes: the configuration q has num_configuration() = n_q entries, everything in momentum
+// space (velocities, momenta p, forces, the columns of mu, M, a gradient of V) has
+// num_velocities() = n_v. They differ only with 3-D rigid bodies (nonholo/rigid_body.hpp:
+// a quaternion of 4 entries against an angular velocity of 3); for planar and general
+// bodies a coordinate and its velocity share their index.
 #include <nonholo/sparse/block_diagonal.hpp>
 #include <nonholo/sparse/gram_assembler.hpp>
 #include <nonholo/sparse/patterns.hpp>
 #include <nonholo/types.hpp>
+
+#include <Eigen/Core>
 
 #include <memory>
 #include <string>
@@ -17,24 +25,65 @@ namespace detail {
 struct ElementSet;  // core/src/element_set.hpp
 }
 
+//   General  any coordinates with a constant SPD mass block (ModelBuilder::add_body);
+//   Planar   (x, y, theta) of the centre of mass, M = diag(m, m, I) (add_planar_body);
+//   Rigid    a 3-D rigid body: quaternion and centre in R^d (add_rigid_body).
+enum class BodyKind : unsigned char { General, Planar, Rigid };
+
 struct Body {
-  int offset = 0;  // first coordinate of the body
-  int size = 0;    // number of coordinates
+  int offset = 0;  // first velocity coordinate of the body (its first column of mu, entry of p)
+  int size = 0;    // number of velocity coordinates
+  int q_offset = 0;  // first configuration entry (offset unless a rigid body comes before)
+  int q_size = 0;    // number of configuration entries (size + 1 for a rigid body)
+  BodyKind kind = BodyKind::General;
+  int translation = 0;  // rigid bodies: d, the dimension of the centre's motion (0, 2, 3)
 };
 
+// A rigid body as the step sees it: where its entries are, its inertia and mass.
+struct RigidBlock {
+  int body = 0;
+  int q = 0;  // first configuration entry: the quaternion (w, x, y, z), then the centre
+  int v = 0;  // first velocity entry: Omega (body frame), then the centre's velocity
+  int translation = 0;
+  double mass = 1.0;
+  Eigen::Matrix3d inertia, inverse_inertia;  // central inertia in the body frame
+  bool isotropic = false;  // inertia = J Id exactly: the Legendre transforms have closed forms
+};
+
+// J(q, p) with a name. With a generator (a horizontal symmetry declared through
+// ModelBuilder::symmetry), J = <xi(q), p> and the restarts read xi directly instead of probing J.
 struct NamedMomentumMap {
   std::string name;
   MomentumMap map;
+  SymmetryGenerator generator;  // empty unless declared as a symmetry
 };
 
 class Model {
  public:
-  int num_coordinates() const { return mass_.size(); }
+  // n_v: the velocity count (the size of p, of forces and of a row of mu).
+  int num_velocities() const { return mass_.size(); }
+  // n_q: the size of the configuration q (n_v plus one per rigid body).
+  int num_configuration() const { return num_configuration_; }
+  // The velocity count n_v, under its older name (every body was planar then, n_q = n_v).
+  int num_coordinates() const { return num_velocities(); }
   int num_bodies() const { return static_cast<int>(bodies_.size()); }
   int num_one_forms() const { return pattern_.rows; }
   int num_one_form_values() const { return pattern_.nnz(); }
   const Body& body(int b) const { return bodies_[b]; }
+  // Names of the n_q configuration entries (x, y, theta; qw0, qx0, ..., x0, y0) ...
   const std::vector<std::string>& coordinate_names() const { return names_; }
+  // ... and of the n_v velocity entries (the same names for planar and general bodies; wx0,
+  // wy0, wz0, vx0, vy0 for a rigid body): messages about a column of mu name these.
+  const std::vector<std::string>& velocity_names() const { return velocity_names_.empty() ? names_ : velocity_names_; }
+
+  // 3-D rigid bodies (nonholo/rigid_body.hpp), in body order.
+  bool has_rigid_bodies() const { return !rigid_.empty(); }
+  const std::vector<RigidBlock>& rigid_bodies() const { return rigid_; }
+  // out = q moved along the velocity-space displacement delta (n_v entries): flat
+  // coordinates add delta, a rigid body's orientation becomes R exp(hat(delta_Omega)) (a
+  // body-frame rotation, renormalised). For q - h v on flat models, and wherever a model
+  // with rigid bodies must move q along a velocity. out may alias q.
+  void retract(ConstVecRef q, ConstVecRef delta, VecRef out) const;
   // The label given to one-form row r (ModelBuilder::add_one_form), "" when none: messages
   // about a row of mu or of C name it, so that a scene file's error points at its element.
   const std::string& row_label(int r) const;
@@ -99,7 +148,10 @@ class Model {
   Model() = default;
 
   std::vector<Body> bodies_;
+  int num_configuration_ = 0;
   std::vector<std::string> names_;
+  std::vector<std::string> velocity_names_;  // empty unless some body is rigid
+  std::vector<RigidBlock> rigid_;
   sparse::BlockDiagonal mass_, inverse_mass_;
   sparse::RowPattern pattern_;
   struct LazyGram;  // model.cpp: a once_flag and the assembler; shared by copies of the model

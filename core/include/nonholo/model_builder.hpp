@@ -3,6 +3,7 @@
 // whose message names the body, row or column and the offending value.
 #include <nonholo/elements.hpp>
 #include <nonholo/model.hpp>
+#include <nonholo/rigid_body.hpp>
 
 #include <array>
 #include <cstdint>
@@ -22,6 +23,12 @@ class ModelBuilder {
   // A planar rigid body in centre-of-mass coordinates (x, y, theta): M = diag(m, m, I).
   // Throws unless mass and inertia are finite and positive.
   int add_planar_body(const std::array<std::string, 3>& coordinate_names, double mass, double inertia);
+  // A 3-D rigid body (nonholo/rigid_body.hpp): 4 + d configuration entries (quaternion, centre)
+  // and 3 + d velocity entries (Omega in the body frame, the centre's velocity), M =
+  // blockdiag(inertia, m Id). Throws unless the translation is 0, 2 or 3, the mass positive
+  // and finite, and the inertia finite, symmetric and positive definite (condition number at
+  // most 1e12, as add_body); the names follow RigidBody::name.
+  int add_rigid_body(const RigidBody& body);
 
   // Optional: room for a model of this size, so that a million bodies are added without
   // regrowing (and copying) the builder's arrays; the name table is sized once.
@@ -50,6 +57,20 @@ class ModelBuilder {
   int add_hitch(const Hitch& hitch, std::string label = "");
   void add_torsional_spring(const TorsionalSpring& spring);
   void add_thrust(Thrust thrust);
+  // Elements on rigid bodies (elements.hpp). Each throws at once for a body out of range or
+  // not rigid, a translation the element cannot use, a zero or non-finite axis, a radius or
+  // length that is not positive and finite; the constraints return their first row's index.
+  int add_body_axis_constraint(const BodyAxisConstraint& constraint, std::string label = "");
+  int add_space_axis_constraint(const SpaceAxisConstraint& constraint, std::string label = "");
+  int add_rolling_ball(const RollingBall& ball, std::string label = "");
+  int add_rolling_disk(const RollingDisk& disk, std::string label = "");
+  int add_rod(const Rod& rod, std::string label = "");
+  // Uniform gravity g along -e3 on every rigid body that moves freely in 3-D (translation 3):
+  // a constant external force -m g e3 on its centre (so the discrete work-energy identity of
+  // the step holds to round-off; the energy m g z is the work's negative). Once per model.
+  void add_gravity(double g);
+  void add_body_torque(BodyTorque torque);
+  void add_body_force(BodyForce force);
 
   // The gaps g(q), required when there are holonomic rows.
   ModelBuilder& gap(ConstraintGap gap);
@@ -61,6 +82,10 @@ class ModelBuilder {
   ModelBuilder& potential(Potential value, PotentialGradient gradient);
   ModelBuilder& external_force(ExternalForce force);
   ModelBuilder& momentum_map(const std::string& name, MomentumMap map);
+  // A horizontal symmetry by its generator xi(q) (n_v entries, in D(q)): the momentum map
+  // J = <xi(q), p>, named `name`, which the restarts and the composed steps' energy
+  // projection keep exactly by scaling only the part of p~ that no such map sees.
+  ModelBuilder& symmetry(const std::string& name, SymmetryGenerator generator);
   // M(q) and dM/dq_i over all coordinates (see Model::has_configuration_metric). The bodies'
   // mass blocks should be M(q0): the set-up code and the diagnostics of q0 use them.
   ModelBuilder& configuration_metric(MetricValue value, MetricDerivative derivative);
@@ -96,9 +121,14 @@ class ModelBuilder {
   void insert_name(int coordinate);
   int body_of_coordinate(int coordinate) const;
   void check_names(int index, const std::string* names, int k) const;
+  // Appends a validated body: its names, its mass block, its offsets.
+  void add_checked_body(const std::string* names, int k, const Eigen::Ref<const Eigen::MatrixXd>& block,
+                        BodyKind kind);
   std::shared_ptr<detail::ElementSet> elements_;      // null until an element is added
   detail::ElementSet& elements();
   int planar_body(int body, const char* element) const;  // its first coordinate, or throws
+  const Body& rigid_body(int body, const char* element) const;  // the body, or throws
+  int centre_dimension(int body, const char* element) const;  // 2 or 3 (a rod's ends), or throws
   Model finish(Model model, std::shared_ptr<detail::ElementSet> elements) const;
   void build_elements(Model& model, std::shared_ptr<detail::ElementSet> set) const;
 };

@@ -8,6 +8,7 @@
 #include <nonholo/model_builder.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/restart.hpp>
+#include <nonholo/rigid_body.hpp>
 #include <nonholo/stability.hpp>
 #include <nonholo/dla.hpp>
 #include <nonholo/implicit.hpp>

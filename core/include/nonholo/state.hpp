@@ -16,8 +16,8 @@ namespace nonholo {
 struct State {
   double t = 0.0;  // t_k = t0 + k h on the grid below (never summed step by step)
   TimeGrid grid;
-  Vector q;       // configuration q_k
-  Vector p;       // average momentum p~_k, with mu(q_k) M^-1 p~_k = 0
+  Vector q;       // configuration q_k (n_q entries; rigid bodies: unit quaternions, renormalised every step)
+  Vector p;       // average momentum p~_k, with mu(q_k) M^-1 p~_k = 0 (n_v, as force)
   Vector lambda;  // multipliers lambda~_k (sign convention M qdd = f + mu^T lambda)
   Vector force;   // f(t_k, q_k) + mu(q_k)^T lambda~_k
   long steps = 0;     // steps taken since the start (schedules restarts and measurements)

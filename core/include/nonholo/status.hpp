@@ -24,7 +24,10 @@ enum class Status {
   UnstableStepSize,     // h at or beyond the explicit method's stability limit (stability.hpp)
   BlewUp,               // a run's energy error passed 100% or its diagnostics overflowed: not a solution
   Interrupted,          // a run stopped by SIGINT (the command-line tool)
+  LegendreNotSolved,    // a rigid body's discrete Legendre transform has no solution (h |Omega| too large)
 };
+// The last enumerator (for loops over all of them, the Python enum's).
+inline constexpr Status kLastStatus = Status::LegendreNotSolved;
 
 const char* to_string(Status status);
 

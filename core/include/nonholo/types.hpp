@@ -1,5 +1,7 @@
 #pragma once
-// Vector types and the callback signatures a Model is built from.
+// Vector types and the callback signatures a Model is built from. q has the model's n_q
+// entries; velocities (qdot), momenta, forces, gradients and the columns of mu have n_v
+// (nonholo/model.hpp; equal unless the model has 3-D rigid bodies).
 #include <Eigen/Core>
 #include <functional>
 
@@ -16,8 +18,11 @@ using OneFormValues = std::function<void(ConstVecRef q, VecRef values)>;
 // The bias term (d/dt mu(q(t))) qdot, one entry per row: sum_ij d mu_ai / d q_j qdot_j qdot_i.
 using OneFormBias = std::function<void(ConstVecRef q, ConstVecRef qdot, VecRef bias)>;
 using Potential = std::function<double(ConstVecRef q)>;
+// The gradient has n_v entries; for a rigid body its angular part is the left-trivialised
+// derivative (d/ds V(R exp(s hat(e_i))) at s = 0), the negative of the body-frame torque.
 using PotentialGradient = std::function<void(ConstVecRef q, VecRef gradient)>;
-// Generalised external forces / controls F(t, q); must write all n entries.
+// Generalised external forces / controls F(t, q); must write all n_v entries (a rigid body:
+// the torque in its body frame, then the force on its centre in space).
 using ExternalForce = std::function<void(double t, ConstVecRef q, VecRef force)>;
 // The gaps g(q) of the holonomic constraints (hitches), one entry per holonomic row, in
 // the order the rows were declared. Those rows of mu must be the gradients dg/dq.
@@ -30,5 +35,9 @@ using MetricValue = std::function<void(ConstVecRef q, MatRef metric)>;
 using MetricDerivative = std::function<void(ConstVecRef q, int i, MatRef derivative)>;
 // A scalar momentum map J(q, p), for example <p, xi_Q(q)> for a symmetry xi.
 using MomentumMap = std::function<double(ConstVecRef q, ConstVecRef p)>;
+// The generator xi(q) of a horizontal symmetry in velocity space (n_v entries; for a rigid
+// body left-trivialised: the body-frame angular velocity, then the centre's velocity), lying
+// in the constraint distribution D(q): its momentum map is J = <xi(q), p>.
+using SymmetryGenerator = std::function<void(ConstVecRef q, VecRef xi)>;
 
 }  // namespace nonholo

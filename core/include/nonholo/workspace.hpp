@@ -65,11 +65,17 @@ class alignas(128) Workspace {
   }
   void clear_message() { message_.clear(); }
 
-  // Scratch vectors of size n (coordinates) ...
-  Vector q_next, p_half, p_hat, p_next, velocity, applied, force_next, scratch_n, scratch_n2;
+  // The next configuration and a configuration scratch (n_q entries) ...
+  Vector q_next, scratch_q;
+  // ... scratch vectors of size n_v (velocities, momenta, forces) ...
+  Vector p_half, p_hat, p_next, velocity, applied, force_next, scratch_n, scratch_n2;
+  // ... with rigid bodies (empty otherwise): the momentum the drift carries to q_{k+1} (the
+  // rigid bodies' p_Omega turned by W^T; p_half itself on flat models), and the gyroscopic
+  // term M^-1 g (n_v) with its image mu M^-1 g (m) ...
   // ... of size nnz(mu), nnz(C) and m (one-form rows). c_values holds C only for the
   // factorisations without an in-place path (it is empty with CHOLMOD and banded);
   // scratch_nnz2 is empty for a model with an analytic bias.
+  Vector p_arrive, gyroscopic, gyroscopic_m;
   Vector mu_values, c_values, rhs, lambda, scratch_m, scratch_nnz, scratch_nnz2;
   // ... and of size num_holonomic() (hitch gaps g(q)).
   Vector gap;
@@ -96,6 +102,12 @@ class alignas(128) Workspace {
   Vector saved_q, saved_p, saved_lambda, saved_force;
   // Numeric factorisations of C so far (the unit of cost the methods are compared in).
   long factorizations = 0;
+  // Rigid bodies: the most Newton iterations a discrete Legendre transform has taken so far
+  // (0 for closed forms; reset it to watch a stretch of steps).
+  int legendre_iterations = 0;
+  // The rotation Lagrangian of the last options step() accepted (MoserVeselov before any):
+  // what diagnose() and the restarts use to step back to q_{k-1} on models with rigid bodies.
+  RotationLagrangian rotation() const { return options_known_ ? options_.rotation : RotationLagrangian::MoserVeselov; }
   // Whether step() has found these options valid on this workspace before (it then skips its
   // checks: on a small model they cost a tenth of a step), and remembering them.
   bool options_checked(const RattleOptions& o) const { return options_known_ && same_options(o, options_); }
