@@ -176,7 +176,7 @@ void expect_failure(const std::vector<std::string>& args, const std::string& fra
 }
 
 TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
-  expect_failure({"run", "sled"}, "unknown scene 'sled' (known: particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train)");
+  expect_failure({"run", "sled"}, "unknown scene 'sled' (known: particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train, suslov, veselova, chaplygin_ball, ball_chain, rolling_disk)");
   expect_failure({"run", "sleigh", "--set", "mass=2"},
                  "unknown parameter 'mass' for scene 'sleigh' (parameters: m, I, a, v0, omega0, x0, y0, theta0)");
   expect_failure({"run", "sleigh", "--set", "m=heavy"}, "--set m=heavy: 'heavy' is not a number");

@@ -65,8 +65,15 @@ TEST(NoAllocation, ScenesOnEveryBackend) {
       {"sleigh_chain", {"bodies=12"}},
       {"sleigh_chain", {"bodies=12", "hitched=0", "k=1"}},  // C diagonal
       {"wheeled_train", {"bodies=12"}},
+      // 3-D rigid bodies: the Legendre transforms' Newton iterations, closed forms, rods, gravity.
+      {"suslov", {}},
+      {"veselova", {}},
+      {"chaplygin_ball", {}},  // momentum maps from generators (their thread_local buffer)
+      {"ball_chain", {"bodies=4"}},
+      {"ball_chain", {"bodies=2", "I1=0.4", "I2=0.4", "I3=0.4"}},  // isotropic: closed form
+      {"rolling_disk", {}},
   };  // sleigh_contact: see ImplicitGeneralForm
-  ASSERT_EQ(scenarios::scene_catalogue().size(), 6u) << "a new scene needs a case here";
+  ASSERT_EQ(scenarios::scene_catalogue().size(), 11u) << "a new scene needs a case here";
   for (const auto& c : cases) {
     const auto& info = scenarios::find_scene(c.scene);
     scenarios::Parameters p = info.defaults();

@@ -138,7 +138,7 @@ TEST(Reference, BadOptionsAndNamesAreRefused) {
                         "unknown reference method 'euler' (valid: rk4, arkode-dp5, arkode-verner)");
   Sleigh s;
   testing::expect_error([&] { Integrator(s.setup.model, Method::Rk4, {}, 0.0, Vector::Zero(2), s.v0); },
-                        "expected 3 coordinates and velocities, got 2 and 3");
+                        "expected 3 coordinates and 3 velocities, got 2 and 3");
 }
 
 }  // namespace

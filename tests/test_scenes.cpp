@@ -73,14 +73,21 @@ TEST(Scenes, AnalyticBiasMatchesFiniteDifferences) {
   for (const auto& info : scenarios::scene_catalogue()) {
     auto s = info.build(info.defaults());
     Workspace ws(s.model);
-    const int n = s.model.num_coordinates(), m = s.model.num_one_forms();
+    const int n = s.model.num_velocities(), nq = s.model.num_configuration(), m = s.model.num_one_forms();
     for (std::uint32_t seed = 1; seed <= 5; ++seed) {
-      const Vector q = testing::random_vector(seed, n), v = testing::random_vector(seed + 50, n);
+      Vector q = testing::random_vector(seed, nq);
+      for (const RigidBlock& r : s.model.rigid_bodies()) q.segment<4>(r.q).normalize();
+      // A disk's centre at its height (it lies on the plane): only its orientation matters here.
+      const Vector v = testing::random_vector(seed + 50, n);
       Vector bias(m);
       ASSERT_EQ(one_form_bias(s.model, ws, q, v, bias), Status::Ok);
-      // Independent: (mu(q + d v) - mu(q - d v)) v / (2 d).
+      // Independent: (mu(q (+) d v) - mu(q (+) -d v)) v / (2 d), along the motion's own curve
+      // (q + d v on flat models; R exp(d hat(Omega)) for a rigid body's orientation).
       const double d = 1e-5;
-      const Vector fd = (testing::dense_one_forms(s.model, q + d * v) - testing::dense_one_forms(s.model, q - d * v)) * v / (2 * d);
+      Vector plus(nq), minus(nq);
+      s.model.retract(q, d * v, plus);
+      s.model.retract(q, -d * v, minus);
+      const Vector fd = (testing::dense_one_forms(s.model, plus) - testing::dense_one_forms(s.model, minus)) * v / (2 * d);
       EXPECT_LE((bias - fd).lpNorm<Eigen::Infinity>(), 1e-8) << info.name << " seed " << seed;
     }
   }
@@ -112,7 +119,7 @@ TEST(Scenes, ParametersAreValidated) {
   expect([] { build("sleigh", {"m=1e999"}); }, "out of the range of a double");
   expect([] { build("sleigh", {"m=-1"}); }, "sleigh: parameter m = -1 must be positive");
   expect([] { build("snakeboard", {"J1=0"}); }, "snakeboard: parameter J1 = 0 must be positive");
-  expect([] { scenarios::find_scene("sleighs"); }, "unknown scene 'sleighs' (known: particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train)");
+  expect([] { scenarios::find_scene("sleighs"); }, "unknown scene 'sleighs' (known: particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train, suslov, veselova, chaplygin_ball, ball_chain, rolling_disk)");
   EXPECT_NO_THROW(build("sleigh", {"m=+2.5", "a=-0.1", "I=1e-3"}));
 }
 

@@ -13,6 +13,10 @@ double kinetic_energy(const Model& model, ConstVecRef p, VecRef scratch) {
 }
 
 Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h) {
+  return diagnose(model, ws, s, h, ws.rotation());
+}
+
+Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h, RotationLagrangian rotation) {
   Diagnostics d;
   const double v_now = model.potential(s.q);
   d.energy = kinetic_energy(model, s.p, ws.scratch_n) + v_now;
@@ -22,7 +26,7 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h
   d.energy_post = kinetic_energy(model, ws.scratch_n2, ws.scratch_n);
   if (model.has_potential()) {
     if (model.has_rigid_bodies()) {  // q_{k-1} through the rigid bodies' Legendre transforms
-      d.energy_post += 0.5 * (detail::previous_potential(model, ws.rotation(), h, s.q, ws.scratch_n2, ws.scratch_n,
+      d.energy_post += 0.5 * (detail::previous_potential(model, rotation, h, s.q, ws.scratch_n2, ws.scratch_n,
                                                          ws.scratch_q) +
                               v_now);
     } else {
@@ -49,8 +53,12 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h
 }
 
 Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& s, double h) {
+  return diagnose_step(model, ws, s, h, ws.rotation());
+}
+
+Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& s, double h, RotationLagrangian rotation) {
   const auto& f = ws.step_diagnostics;
-  if (f.q == nullptr || f.q != s.q.data() || f.steps != s.steps) return diagnose(model, ws, s, h);
+  if (f.q == nullptr || f.q != s.q.data() || f.steps != s.steps) return diagnose(model, ws, s, h, rotation);
   Diagnostics d;
   d.energy = f.energy;
   d.energy_post = f.energy_post;

@@ -55,7 +55,7 @@ Status constraint_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVe
   const Status status = one_form_bias(model, ws, q, qdot, bias);
   if (status != Status::Ok || !model.has_rigid_bodies() || model.num_one_forms() == 0) return status;
   // + mu M^-1 g(v); mu(q) is in the workspace (the callers evaluated it at q).
-  detail::gyroscopic_acceleration(model, qdot, ws.gyroscopic);
+  gyroscopic_acceleration(model, qdot, ws.gyroscopic);
   model.mu_times(ws.mu_values.data(), ws.gyroscopic.data(), ws.gyroscopic_m.data());
   bias += ws.gyroscopic_m;
   return Status::Ok;

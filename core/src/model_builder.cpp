@@ -735,12 +735,20 @@ ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap ma
 
 ModelBuilder& ModelBuilder::symmetry(const std::string& name, SymmetryGenerator generator) {
   if (!generator) fail("symmetry '" + name + "': the generator is empty");
-  // J = <xi(q), p>, evaluated into a buffer of the calling thread (sized once per thread).
+  // J = <xi(q), p>, xi evaluated into a buffer on the stack (up to kStack velocities: no heap
+  // at all), else into one of the calling thread's (allocated at its first use, and when a
+  // larger model's map is evaluated on that thread). Restarts read the generator directly.
   MomentumMap map = [generator](ConstVecRef q, ConstVecRef p) {
+    constexpr int kStack = 256;
+    if (p.size() <= kStack) {
+      Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kStack, 1> xi(p.size());
+      generator(q, xi);
+      return xi.dot(p);
+    }
     thread_local Vector xi;
-    if (xi.size() != p.size()) xi.resize(p.size());
-    generator(q, xi);
-    return xi.dot(p);
+    if (xi.size() < p.size()) xi.resize(p.size());
+    generator(q, xi.head(p.size()));
+    return xi.head(p.size()).dot(p);
   };
   momentum_map(name, std::move(map));
   draft_.momentum_maps_.back().generator = std::move(generator);

@@ -281,8 +281,13 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   model.mu_transpose_times(ws.mu_values.data(), ws.lambda_s.data(), c.data());
   c *= -half;
 
+  // When the momentum maps see all of p~ (their generators span D: a single Chaplygin ball),
+  // p~ is theirs to keep and nothing can be scaled: the restart resets lambda~ alone.
+  const bool all_seen = maps && inverse_mass_dot(model, ws.map_rest, ws.map_rest, ws.scratch_n2) <=
+                                    64.0 * kEps * inverse_mass_dot(model, p, p, ws.scratch_n2);
   double s = 1.0, plain = 0.0;
-  if (!scale_keeping_energy(model, q, a, b, c, target, apply_minv, ws.scratch_n, ws.scratch_n2, previous, s, plain))
+  if (!all_seen &&
+      !scale_keeping_energy(model, q, a, b, c, target, apply_minv, ws.scratch_n, ws.scratch_n2, previous, s, plain))
     return ws.fail(Status::RestartFailed,
                    "no rescale of p~ keeps the post-momentum energy %.17g (energy change of the plain "
                    "restart %.3g): restart less often or not at all (RattleOptions::restart, --restart)",
@@ -321,6 +326,7 @@ Status project_energy(const Model& model, Workspace& ws, ConstVecRef q, VecRef p
   const double want = target - potential - kept;
   const double tiny = 8.0 * kEps * (std::abs(target) + std::abs(potential) + kept + scaled);
   if (std::abs(want - scaled) <= tiny) return Status::Ok;
+  if (maps && scaled <= 64.0 * kEps * (kept + scaled)) return Status::Ok;  // the maps fix p~ (and its energy)
   if (!(want > 0.0) || !(scaled > 0.0) || !std::isfinite(want / scaled))
     return ws.fail(Status::RestartFailed,
                    "the energy of p~ cannot be brought back to %.17g (potential %.17g, kinetic energy %.17g "

@@ -120,6 +120,33 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
                    ") unset or NaN at q0 with qdot = 0");
     }
   }
+  // Symmetry generators: every entry filled, and in D(q0) (mu(q0) is in the workspace's cache).
+  for (const NamedMomentumMap& map : model.momentum_maps()) {
+    if (!map.generator) continue;
+    Vector xi = Vector::Constant(n, nan);
+    map.generator(q0, xi);
+    for (int i = 0; i < n; ++i)
+      if (std::isnan(xi[i]))
+        complain("symmetry '" + map.name + "': its generator left entry " + std::to_string(i) + " (" + names[i] +
+                 ") unset or NaN at q0");
+    if (model.num_one_forms() == 0) continue;
+    const auto& pattern = model.one_form_pattern();
+    const double size = xi.lpNorm<Eigen::Infinity>();
+    for (int r = 0; r < pattern.rows; ++r) {
+      double sum = 0.0, row_norm = 0.0;
+      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k) {
+        sum += ws.mu_values[k] * xi[pattern.col_idx[k]];
+        row_norm += std::abs(ws.mu_values[k]);
+      }
+      if (std::abs(sum) > 1e-10 * row_norm * size) {
+        std::ostringstream os;
+        os << "symmetry '" << map.name << "': its generator xi(q0) does not lie in D(q0): " << model.describe_row(r)
+           << " gives mu xi = " << sum << " (a horizontal symmetry's generator satisfies every constraint; declare "
+           << "other conserved quantities with momentum_map)";
+        complain(os.str());
+      }
+    }
+  }
   if (model.num_holonomic() > 0) {
     Vector& g = sized_buffer(ws.gap, local, model.num_holonomic());
     g.setConstant(nan);

@@ -79,16 +79,17 @@ Integrator::Integrator(const Model& model, Method method, const Options& options
                        ConstVecRef q0, ConstVecRef v0)
     : ode_(model, {options.backend, false}), method_(method), options_(options), t_(t0) {
   validate(options);
-  const int n = model.num_coordinates();
-  if (q0.size() != n || v0.size() != n) {
+  const int n = model.num_velocities(), nq = model.num_configuration();
+  if (q0.size() != nq || v0.size() != n) {
     std::ostringstream os;
-    os << "reference integrator: expected " << n << " coordinates and velocities, got " << q0.size()
+    os << "reference integrator: expected " << nq << " coordinates and " << n << " velocities, got " << q0.size()
        << " and " << v0.size();
     throw std::invalid_argument(os.str());
   }
-  y_.resize(2 * n);
+  y_.resize(nq + n);
   y_ << q0, v0;
-  for (Vector* v : {&k1_, &k2_, &k3_, &k4_, &tmp_}) v->setZero(2 * n);
+  for (Vector* v : {&k1_, &k2_, &k3_, &k4_, &tmp_}) v->setZero(nq + n);
+  if (model.has_rigid_bodies()) q_unit_.setZero(nq);
   if (method == Method::Rk4) return;
 
   arkode_ = std::make_unique<Arkode>();
@@ -98,7 +99,7 @@ Integrator::Integrator(const Model& model, Method method, const Options& options
     if (!ok) throw std::runtime_error(std::string("ARKODE: ") + what + " failed");
   };
   check(SUNContext_Create(nullptr, &a.context) == 0, "SUNContext_Create");
-  a.y = N_VMake_Serial(2 * n, y_.data(), a.context);  // ARKODE works on y_ in place
+  a.y = N_VMake_Serial(nq + n, y_.data(), a.context);  // ARKODE works on y_ in place
   check(a.y != nullptr, "N_VMake_Serial");
   a.memory = ARKStepCreate(Arkode::rhs, nullptr, t0, a.y, a.context);
   check(a.memory != nullptr, "ARKStepCreate");
@@ -115,8 +116,15 @@ Integrator::Integrator(const Model& model, Method method, const Options& options
 
 Integrator::~Integrator() = default;
 
-ConstVecRef Integrator::q() const { return y_.head(ode_.model().num_coordinates()); }
-ConstVecRef Integrator::v() const { return y_.tail(ode_.model().num_coordinates()); }
+ConstVecRef Integrator::q() const {
+  const Model& model = ode_.model();
+  if (!model.has_rigid_bodies()) return y_.head(model.num_configuration());
+  // The quaternions the solver carries drift off the unit sphere by its error: report unit ones.
+  q_unit_ = y_.head(model.num_configuration());
+  for (const RigidBlock& r : model.rigid_bodies()) q_unit_.segment<4>(r.q).normalize();
+  return q_unit_;
+}
+ConstVecRef Integrator::v() const { return y_.tail(ode_.model().num_velocities()); }
 
 Status Integrator::fail(Status status, const std::string& why) {
   message_ = why;

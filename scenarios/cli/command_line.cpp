@@ -41,7 +41,8 @@ struct RunOptions {
 
 void add_run_options(CLI::App* cmd, RunOptions& o) {
   cmd->add_option("scene", o.config.scene,
-                  "scene name (particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train)")
+                  "scene name (particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train, suslov, "
+                  "veselova, chaplygin_ball, ball_chain, rolling_disk) or a scene file FILE.json")
       ->required();
   cmd->add_option("--dt", o.config.dt, "time step (default: the scene's)");
   cmd->add_option("--t-end", o.config.t_end, "final time (default: the scene's)");
@@ -71,6 +72,10 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                   "composed step (2 s plain steps: 10 for order 4, 18 for order 6)");
   cmd->add_option("--composition", o.config.composition,
                   "--order 4: suzuki5 (auto) or triple-jump; --order 6: kahan-li9 (auto) or yoshida7");
+  cmd->add_option("--rotation", o.config.rotation,
+                  "reflection, scenes with 3-D rigid bodies: the rotation's discrete Lagrangian, "
+                  "moser-veselov (default: exact energy for any inertia), moser-veselov-f (smaller error) "
+                  "or exponential (RATTLie_nonhol's: energy not exact for non-isotropic bodies)");
   cmd->add_flag("--error-estimate", o.config.error_estimate,
                 "integrate a companion at dt/2 (ARKODE: tol/100) in the same run and report "
                 "error_estimate, the max difference in q over the output times (Richardson-scaled)");
@@ -102,7 +107,8 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   if (cmd->count("--dt") && !(run.dt > 0.0))
     throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
   if (run.method != "reflection") {
-    for (const char* option : {"--hitch", "--restart", "--restart-tol", "--monitor-every", "--order", "--composition"})
+    for (const char* option :
+         {"--hitch", "--restart", "--restart-tol", "--monitor-every", "--order", "--composition", "--rotation"})
       if (cmd->count(option)) throw std::invalid_argument(std::string(option) + " applies to the reflection method only");
   } else if (cmd->count("--tol")) {
     throw std::invalid_argument("--tol applies to the methods arkode-dp5 and arkode-verner");
@@ -124,6 +130,11 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   }
   if (cmd->count("--t-end") && !(run.t_end >= 0.0))
     throw std::invalid_argument("--t-end " + std::to_string(run.t_end) + ": must be non-negative");
+  try {
+    rotation_from_string(run.rotation);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("--rotation: ") + e.what());
+  }
   run.backend = sparse::backend_from_string(o.backend);
   run.hitch = hitch_mode_from_string(o.hitch);
 }

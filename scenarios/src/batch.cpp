@@ -177,6 +177,7 @@ BatchResult run_batch(const BatchConfig& config) {
       agg.restart = s.restart;
       agg.order = s.order;
       agg.composition = s.composition;
+      agg.rotation = s.rotation;
       agg.factorizations = s.factorizations >= 0 ? 0 : -1;
       agg.stability_ratio = s.stability_ratio;
       agg.error_estimate = config.run.error_estimate ? 0.0 : std::numeric_limits<double>::quiet_NaN();
@@ -188,6 +189,7 @@ BatchResult run_batch(const BatchConfig& config) {
       agg.work = std::numeric_limits<double>::quiet_NaN();  // a sum over trajectories means nothing
     }
     if (s.restarts > 0) agg.restarts += s.restarts;
+    agg.legendre_iterations_max = std::max(agg.legendre_iterations_max, s.legendre_iterations_max);
     if (!std::isnan(s.stability_ratio)) agg.stability_ratio = worst(agg.stability_ratio, s.stability_ratio);
     if (agg.warning.empty() && !s.warning.empty()) agg.warning = "trajectory " + std::to_string(i) + ": " + s.warning;
     if (!std::isnan(s.parasitic_max) && !(s.parasitic_max <= agg.parasitic_max)) {

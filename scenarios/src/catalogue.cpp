@@ -7,7 +7,9 @@ namespace nonholo::scenarios {
 const std::vector<SceneInfo>& scene_catalogue() {
   static const std::vector<SceneInfo> scenes{particle_scene(), sleigh_scene(), sleigh_contact_scene(),
                                                snakeboard_scene(),
-                                               sleigh_chain_scene(), wheeled_train_scene()};
+                                               sleigh_chain_scene(), wheeled_train_scene(),
+                                               suslov_scene(), veselova_scene(), chaplygin_ball_scene(),
+                                               ball_chain_scene(), rolling_disk_scene()};
   return scenes;
 }
 

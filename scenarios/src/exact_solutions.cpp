@@ -1,5 +1,6 @@
 #include <nonholo/scenarios/exact_solutions.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -89,6 +90,51 @@ Eigen::Vector3d ParticleExact::velocity(double t) const {
   const double y = y0_ + yd_ * t;
   const double xd = k_ / std::sqrt(1.0 + y * y);
   return {xd, yd_, y * xd};
+}
+
+SuslovExact::SuslovExact(const Eigen::Matrix3d& inertia, const Eigen::Vector3d& omega0) {
+  if (inertia(0, 1) != 0.0 || omega0.z() != 0.0 || omega0.norm() == 0.0)
+    throw std::invalid_argument("SuslovExact: needs I12 = 0 and an initial Omega = (w1, w2, 0) != 0");
+  const double i1 = inertia(0, 0), i2 = inertia(1, 1), i13 = inertia(0, 2), i23 = inertia(1, 2);
+  energy_ = 0.5 * (i1 * omega0.x() * omega0.x() + i2 * omega0.y() * omega0.y());
+  c1_ = std::sqrt(2.0 * energy_ / i1);
+  c2_ = std::sqrt(2.0 * energy_ / i2);
+  phi0_ = std::atan2(i23 * c2_, i13 * c1_);
+  kappa_ = std::hypot(i13 * c1_, i23 * c2_) / std::sqrt(i1 * i2);
+  const double phi = std::atan2(omega0.y() / c2_, omega0.x() / c1_);
+  s0_ = std::sin(phi - phi0_);
+}
+
+Eigen::Vector3d SuslovExact::angular_velocity(double t) const {
+  // psi in (-pi/2, pi/2) on the branch through psi0 (|sin psi0| < 1 for a motion not yet steady).
+  const double psi = std::asin(std::tanh(kappa_ * t + std::atanh(s0_)));
+  const double phi = psi + phi0_;
+  return {c1_ * std::cos(phi), c2_ * std::sin(phi), 0.0};
+}
+
+std::vector<Eigen::Vector4d> SuslovExact::orientations(const Eigen::Vector4d& q0, const std::vector<double>& times) const {
+  auto rate = [this](double t, const Eigen::Vector4d& q) {
+    const Eigen::Vector3d w = 0.5 * angular_velocity(t);
+    return Eigen::Vector4d(-q[1] * w.x() - q[2] * w.y() - q[3] * w.z(), q[0] * w.x() + q[2] * w.z() - q[3] * w.y(),
+                           q[0] * w.y() - q[1] * w.z() + q[3] * w.x(), q[0] * w.z() + q[1] * w.y() - q[2] * w.x());
+  };
+  std::vector<Eigen::Vector4d> out;
+  Eigen::Vector4d q = q0 / q0.norm();
+  double t = 0.0;
+  for (double target : times) {
+    const long steps = std::max(1L, static_cast<long>(std::ceil((target - t) / 1e-4)));
+    const double h = (target - t) / static_cast<double>(steps);
+    for (long k = 0; k < steps; ++k) {
+      const Eigen::Vector4d k1 = rate(t, q), k2 = rate(t + 0.5 * h, q + 0.5 * h * k1),
+                            k3 = rate(t + 0.5 * h, q + 0.5 * h * k2), k4 = rate(t + h, q + h * k3);
+      q += (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+      q /= q.norm();
+      t = target - h * static_cast<double>(steps - k - 1);
+    }
+    t = target;
+    out.push_back(q);
+  }
+  return out;
 }
 
 }  // namespace nonholo::scenarios

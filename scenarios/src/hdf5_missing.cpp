@@ -21,6 +21,7 @@ Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig&, const st
 }
 Hdf5RunWriter::~Hdf5RunWriter() = default;
 void Hdf5RunWriter::begin(const std::vector<std::string>&) {}
+void Hdf5RunWriter::velocities(const std::vector<std::string>&) {}
 void Hdf5RunWriter::frame(double, ConstVecRef, ConstVecRef, const Diagnostics&) {}
 void Hdf5RunWriter::end() {}
 void Hdf5RunWriter::finish(const RunSummary&) {}

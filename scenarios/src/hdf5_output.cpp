@@ -122,6 +122,7 @@ void describe_run(hid_t file, const std::string& path, const RunConfig& c, const
   attribute(file, path, "monitor_every", static_cast<long>(c.monitor_every));
   attribute(file, path, "order", static_cast<long>(c.order));
   attribute(file, path, "composition", c.composition);
+  attribute(file, path, "rotation", c.rotation);
   attribute(file, path, "dt", c.dt);          // 0: the scene's (the summary has the one used)
   attribute(file, path, "t_end", c.t_end);    // < 0: the scene's
   attribute(file, path, "every", c.every);
@@ -219,6 +220,7 @@ struct Hdf5RunWriter::Impl {
   std::string path;
   Handle file;
   hsize_t n = 0, buffer_rows = 1, buffered = 0;
+  std::vector<std::string> velocities;  // names of p's entries (FrameSink::velocities)
   Growing t, q, p, energy, energy_post, residual, gap;
   std::vector<double> bt, bq, bp, be, bep, br, bg;  // frames not yet written
 
@@ -263,13 +265,18 @@ void Hdf5RunWriter::begin(const std::vector<std::string>& coordinates) {
   w.buffer_rows = std::max<hsize_t>(1, (hsize_t{1} << 17) / std::max<hsize_t>(1, w.n));
   w.t = Growing(f, w.path, "t", 0, w.buffer_rows);
   w.q = Growing(f, w.path, "q", w.n, w.buffer_rows);
-  w.p = Growing(f, w.path, "p", w.n, w.buffer_rows);
+  // p has n_v entries: fewer than q's n_q with rigid bodies (their velocity names then apart).
+  const hsize_t nv = w.velocities.empty() ? w.n : w.velocities.size();
+  w.p = Growing(f, w.path, "p", nv, w.buffer_rows);
   w.energy = Growing(f, w.path, "energy", 0, w.buffer_rows);
   w.energy_post = Growing(f, w.path, "energy_post", 0, w.buffer_rows);
   w.residual = Growing(f, w.path, "residual", 0, w.buffer_rows);
   w.gap = Growing(f, w.path, "gap", 0, w.buffer_rows);
   write_column(f, w.path, "coordinates", coordinates);
+  if (!w.velocities.empty() && w.velocities != coordinates) write_column(f, w.path, "velocities", w.velocities);
 }
+
+void Hdf5RunWriter::velocities(const std::vector<std::string>& names) { impl_->velocities = names; }
 
 void Hdf5RunWriter::frame(double t, ConstVecRef q, ConstVecRef p, const Diagnostics& d) {
   Impl& w = *impl_;

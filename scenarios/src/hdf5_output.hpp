@@ -31,6 +31,7 @@ class Hdf5RunWriter final : public FrameSink {
                 const Parameters& params);
   ~Hdf5RunWriter() override;  // closes the file if finish() did not
   void begin(const std::vector<std::string>& coordinates) override;
+  void velocities(const std::vector<std::string>& names) override;
   void frame(double t, ConstVecRef q, ConstVecRef p, const Diagnostics& d) override;
   void end() override;  // writes the buffered frames
   // The summary's attributes, then closes the file; throws std::runtime_error on a write error.

@@ -160,6 +160,7 @@ std::vector<SummaryField> RunSummary::fields() const {
   text("hitch", hitch);
   if (order > 0) integer("order", order);
   if (!composition.empty()) text("composition", composition);
+  if (!rotation.empty()) text("rotation", rotation);
   if (!restart.empty()) text("restart", restart);
   integer("bodies", bodies);
   integer("steps", steps);
@@ -182,6 +183,7 @@ std::vector<SummaryField> RunSummary::fields() const {
     number("parasitic_max", parasitic_max);
   }
   if (has_momentum) number("momentum_drift_max", momentum_drift_max);
+  if (legendre_iterations_max >= 0) integer("legendre_iterations_max", legendre_iterations_max);
   if (rhs_evaluations >= 0) integer("rhs_evals", rhs_evaluations);
   if (factorizations >= 0) integer("factorizations", factorizations);
   if (!std::isnan(error_estimate)) number("error_estimate", error_estimate);
@@ -225,6 +227,9 @@ PreparedRun prepare_run(const RunConfig& config) {
   r.choice.rattle.restart.monitor_every = config.monitor_every;
   r.choice.rattle.order = config.order;
   r.choice.rattle.composition = composition_from_string(config.composition);
+  r.choice.rattle.rotation = rotation_from_string(config.rotation);
+  if (config.method != "reflection" && r.choice.rattle.rotation != RotationLagrangian::MoserVeselov)
+    throw std::invalid_argument("--rotation applies to the reflection method only");
   if (config.method != "reflection" && (config.order != 2 || r.choice.rattle.composition != Composition::Auto))
     throw std::invalid_argument("--order and --composition apply to the reflection method only");
   try {
@@ -309,7 +314,10 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   for (FrameSink* s : {static_cast<FrameSink*>(h5.get()), config.sink})
     if (s) sinks.push_back(s);
   FrameSink* const sink = config.sink;  // also polled for a stop
-  for (FrameSink* s : sinks) s->begin(model.coordinate_names());
+  for (FrameSink* s : sinks) {
+    s->velocities(model.velocity_names());
+    s->begin(model.coordinate_names());
+  }
 
   RunSummary summary;
   summary.scene = info.name;
@@ -324,6 +332,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   if (reflection && choice.rattle.order > 2)
     summary.composition = to_string(composition_scheme(choice.rattle.order, choice.rattle.composition).composition);
   summary.restarts = runner->restarts();
+  if (reflection && model.has_rigid_bodies()) summary.rotation = to_string(choice.rattle.rotation);
   summary.parasitic_max = std::numeric_limits<double>::quiet_NaN();  // until measured
   // With external forces the energy is not an invariant: the reflection method's discrete
   // work-energy identity (DESIGN.md section 8) gives the balance instead. The other methods
@@ -458,6 +467,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.rhs_evaluations = runner->rhs_evaluations();
   summary.factorizations = runner->factorizations();
   if (summary.restarts >= 0) summary.restarts = runner->restarts();
+  if (model.has_rigid_bodies()) summary.legendre_iterations_max = runner->legendre_iterations();
   if (forced) summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();  // not an invariant
   if (forced && !summary.has_work) summary.energy_rel_err_max = std::numeric_limits<double>::quiet_NaN();
   if (summary.status == Status::Ok && summary.parasitic_max > kParasiticWarning)

@@ -30,7 +30,7 @@ class ReflectionRunner final : public Runner {
   // defined (nor an invariant), so energy_post is NaN there.
   Diagnostics diagnostics() override {
     // The fused chain step computed them in its sweeps (diagnose_step); others diagnose here.
-    Diagnostics d = diagnose_step(model_, ws_, state_, options_.h);
+    Diagnostics d = diagnose_step(model_, ws_, state_, options_.h, options_.rotation);
     if (options_.order > 2) d.energy_post = std::numeric_limits<double>::quiet_NaN();
     return d;
   }
@@ -40,6 +40,7 @@ class ReflectionRunner final : public Runner {
   std::string backend() const override { return ws_.backend_name(); }
   double parasitic() const override { return ws_.parasitic; }
   long restarts() const override { return state_.restarts; }
+  long legendre_iterations() const override { return ws_.legendre_iterations; }
   double power() override { return external_power(model_, ws_, state_); }
   long factorizations() const override { return ws_.factorizations; }
   Workspace* workspace() override { return &ws_; }

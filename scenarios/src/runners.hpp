@@ -38,6 +38,9 @@ class Runner {
   // and the restarts so far (-1 for the other methods).
   virtual double parasitic() const { return std::numeric_limits<double>::quiet_NaN(); }
   virtual long restarts() const { return -1; }
+  // Reflection on a model with rigid bodies: the most Newton iterations a discrete Legendre
+  // transform has taken (-1 for the other methods).
+  virtual long legendre_iterations() const { return -1; }
   // Reflection only: F(t, q)^T M^-1 p~ of the current state (external_power, diagnostics.hpp).
   virtual double power() { return std::numeric_limits<double>::quiet_NaN(); }
   // The workspace whose factorisation holds C(q()) between steps, when the method has one

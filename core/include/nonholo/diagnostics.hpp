@@ -4,6 +4,7 @@
 // post-momentum (preserved to round-off when f = 0, for any D), the constraint residual of
 // p~, the hitch gaps g(q), and the model's momentum maps.
 #include <nonholo/model.hpp>
+#include <nonholo/rattle_options.hpp>
 #include <nonholo/state.hpp>
 #include <nonholo/workspace.hpp>
 
@@ -22,12 +23,18 @@ struct Diagnostics {
 // After a composed step (RattleOptions::order 4, 6) energy_post means nothing: the composed
 // step has no post-momentum (its multipliers restart), and `nonholo run` reports it as NaN.
 Diagnostics diagnose(const Model& model, Workspace& ws, const State& state, double h);
+// The same where rigid bodies and a potential make energy_post need q_{k-1}, reached back through
+// the rotation Lagrangian's Legendre transforms: the 4-argument form uses the one of the last
+// options step() accepted on this workspace (Moser-Veselov before any step); this one is told.
+Diagnostics diagnose(const Model& model, Workspace& ws, const State& state, double h, RotationLagrangian rotation);
 
 // diagnose() for the state the last step() on this workspace returned (the same buffers, not
 // changed since): a fused chain step (Workspace::fused) computed these values in its sweeps,
 // and they are returned at no cost; otherwise diagnose() runs. The values agree with
 // diagnose()'s to round-off (energy_post is summed from p_{k+1/2} as the step had it).
 Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& state, double h);
+Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& state, double h,
+                          RotationLagrangian rotation);
 
 // (1/2) p^T M^-1 p. scratch: n entries.
 double kinetic_energy(const Model& model, ConstVecRef p, VecRef scratch);

@@ -25,6 +25,10 @@ Status constraint_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVe
 Status project_momentum(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p,
                         VecRef p_out, double min_pivot_ratio);
 
+// out = M^-1 g(v), g the gyroscopic force (I Omega) x Omega on each rigid body's Omega and 0
+// elsewhere (all zero for a model without rigid bodies). Allocation-free.
+void gyroscopic_acceleration(const Model& model, ConstVecRef v, VecRef out);
+
 // The continuous multiplier lambda(t, q, qdot) for a velocity qdot in D(q).
 Status constraint_multiplier(const Model& model, Workspace& ws, double t, ConstVecRef q,
                              ConstVecRef qdot, VecRef lambda, double min_pivot_ratio);

@@ -1,6 +1,8 @@
 // The per-body drift of models with rigid bodies (drift.hpp).
 #include "drift.hpp"
 
+#include <nonholo/dynamics.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -61,23 +63,18 @@ Status rigid_drift(const Model& model, Workspace& ws, ConstVecRef q, double h, R
   if (failed >= 0) {
     const Body& body = model.body(failed);
     const Vec3 omega(ws.velocity[body.offset], ws.velocity[body.offset + 1], ws.velocity[body.offset + 2]);
+    // Moser-Veselov folds at h |Omega| about 1 (sin of the turn per step, for an isotropic body);
+    // the other two turn by about h |Omega| and stop at a quarter turn.
+    const char* limit = rotation == RotationLagrangian::MoserVeselov ? "below about 1" : "below about pi/2";
     return ws.fail(Status::LegendreNotSolved,
                    "the discrete Legendre transform (%s) of rigid body %d has no solution in the step from "
-                   "t = %.17g: h |Omega| = %.3g (h = %g, |Omega| = %.3g); it needs h |Omega| below about 1 (a "
-                   "rotation of less than 90 degrees per step): reduce the step size",
-                   to_string(rotation), failed, t, std::abs(h) * omega.norm(), std::abs(h), omega.norm());
+                   "t = %.17g: h |Omega| = %.3g (h = %g, |Omega| = %.3g); it needs h |Omega| %s (a rotation of "
+                   "less than 90 degrees per step): reduce the step size",
+                   to_string(rotation), failed, t, std::abs(h) * omega.norm(), std::abs(h), omega.norm(), limit);
   }
   ws.legendre_iterations = std::max(ws.legendre_iterations, iterations);
   minv.multiply(ws.p_arrive.data(), ws.velocity.data());
   return Status::Ok;
-}
-
-void gyroscopic_acceleration(const Model& model, ConstVecRef v, VecRef out) {
-  out.setZero();
-  for (const RigidBlock& r : model.rigid_bodies()) {
-    const Vec3 omega = v.segment<3>(r.v);
-    out.segment<3>(r.v) = r.inverse_inertia * (r.inertia * omega).cross(omega);
-  }
 }
 
 double previous_potential(const Model& model, RotationLagrangian rotation, double h, ConstVecRef q,
@@ -104,17 +101,31 @@ void discrete_momentum(const Model& model, RotationLagrangian rotation, ConstVec
     const Vec4 a_conj(a[0], -a[1], -a[2], -a[3]);
     Vec4 w = quaternion_product(a_conj, b);
     w /= w.norm();
-    if (!(w[0] > 0.0)) {
-      if (w[0] < 0.0) {
-        w = -w;  // the same rotation
-      } else {
-        std::ostringstream os;
-        os << "start: rigid body " << r.body << " turns by 180 degrees from q0 to q1: no step of the method does";
-        throw std::invalid_argument(os.str());
-      }
+    if (w[0] < 0.0) w = -w;  // the same rotation, by the shorter way
+    // A step turns a body by less than a quarter turn (legendre.hpp): a pair further apart is
+    // no step of the method.
+    if (!(w[0] >= std::sqrt(0.5))) {
+      std::ostringstream os;
+      os.precision(4);
+      os << "start: rigid body " << r.body << " turns by " << 2.0 * std::acos(std::min(1.0, w[0])) * 180.0 / M_PI
+         << " degrees from q0 to q1; a step turns a body by less than 90 degrees: take q1 closer to q0 (or a "
+            "smaller h)";
+      throw std::invalid_argument(os.str());
     }
     p.segment<3>(r.v) = legendre_momentum(rotation, r, h, w);
   }
 }
 
 }  // namespace nonholo::detail
+
+namespace nonholo {
+
+void gyroscopic_acceleration(const Model& model, ConstVecRef v, VecRef out) {
+  out.setZero();
+  for (const RigidBlock& r : model.rigid_bodies()) {
+    const detail::Vec3 omega = v.segment<3>(r.v);
+    out.segment<3>(r.v) = r.inverse_inertia * (r.inertia * omega).cross(omega);
+  }
+}
+
+}  // namespace nonholo

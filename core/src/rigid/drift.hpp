@@ -26,10 +26,6 @@ int drift(const Model& model, RotationLagrangian rotation, double h, const doubl
 Status rigid_drift(const Model& model, Workspace& ws, ConstVecRef q, double h, RotationLagrangian rotation,
                    double t);
 
-// out = M^-1 g(v), g the gyroscopic force (I Omega) x Omega on each rigid body's Omega and 0
-// elsewhere: the velocity-quadratic term of M vdot = f + g + mu^T lambda (README "3-D bodies").
-void gyroscopic_acceleration(const Model& model, ConstVecRef v, VecRef out);
-
 // The potential at the configuration a step of size h came from: q_{k-1}, reached from q by a
 // step of -h with the pre-momentum p_minus (velocity v_minus = M^-1 p_minus), into q_prev
 // (n_q entries). NaN when a rigid body's transform back has no solution.
@@ -38,7 +34,7 @@ double previous_potential(const Model& model, RotationLagrangian rotation, doubl
 
 // The post-momentum at q0 of a step of size h that lands on q1 (the discrete Legendre
 // transform of (q0, q1)): M (q1 - q0) / h on flat blocks and translations, legendre_momentum
-// for the orientations. Throws std::invalid_argument when a body turns by 180 degrees or more.
+// for the orientations. Throws std::invalid_argument when a body turns by more than 90 degrees.
 void discrete_momentum(const Model& model, RotationLagrangian rotation, ConstVecRef q0, ConstVecRef q1, double h,
                        VecRef p);
 

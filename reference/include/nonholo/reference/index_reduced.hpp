@@ -1,9 +1,12 @@
 #pragma once
 // The continuous equations of DESIGN.md section 1 in index-reduced, first-order form, the
 // equations standard ODE solvers integrate (the baselines of DESIGN.md section 2):
-//   qdot = v,   M vdot = f + mu^T lambda,   C lambda = -(mu' v) - mu M^-1 f,
-// and the projection onto the constraints users often apply after each step. Every
-// evaluation factorises C(q) once through the model's Workspace; nothing allocates.
+//   qdot = v,   M vdot = f + g + mu^T lambda,   C lambda = -(mu' v) - mu M^-1 (f + g),
+// and the projection onto the constraints users often apply after each step. With 3-D rigid
+// bodies y = (q, v) has n_q + n_v entries: a body's quaternion follows qdot = q (x) (0, Omega)/2
+// (its norm is kept only up to the solver's error: rotations are read from q/|q|, and
+// Integrator::q() reports unit quaternions), and g = (I Omega) x Omega is the gyroscopic
+// force. Every evaluation factorises C(q) once through the model's Workspace; nothing allocates.
 #include <nonholo/model.hpp>
 #include <nonholo/status.hpp>
 #include <nonholo/workspace.hpp>
@@ -17,7 +20,7 @@ class IndexReducedOde {
   explicit IndexReducedOde(const Model&& model, const WorkspaceOptions& options = {}) = delete;
 
   const Model& model() const { return *model_; }
-  int size() const { return 2 * model_->num_coordinates(); }  // y = (q, v)
+  int size() const { return model_->num_configuration() + model_->num_velocities(); }  // y = (q, v)
   Workspace& workspace() { return ws_; }
   const Workspace& workspace() const { return ws_; }
 
@@ -36,7 +39,7 @@ class IndexReducedOde {
  private:
   const Model* model_;
   Workspace ws_;
-  Vector q_, v_, p_, lambda_;  // scratch
+  Vector q_, v_, p_, lambda_, gyro_;  // scratch
 };
 
 }  // namespace nonholo::reference

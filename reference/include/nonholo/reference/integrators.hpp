@@ -41,6 +41,8 @@ class Integrator {
   Status advance_to(double t);
 
   double t() const { return t_; }
+  // The configuration (rigid bodies' quaternions normalised; the solver's own state y() keeps
+  // them as integrated) and the velocity.
   ConstVecRef q() const;
   ConstVecRef v() const;
   const double* y() const { return y_.data(); }
@@ -60,6 +62,7 @@ class Integrator {
   Options options_;
   double t_;
   Vector y_, k1_, k2_, k3_, k4_, tmp_;
+  mutable Vector q_unit_;  // q() with unit quaternions (models with rigid bodies)
   long steps_ = 0, rhs_ = 0;
   std::string message_;
   std::unique_ptr<Arkode> arkode_;

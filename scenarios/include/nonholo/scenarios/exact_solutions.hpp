@@ -40,4 +40,26 @@ class ParticleExact {
   double x0_, y0_, z0_, yd_, k_;
 };
 
+// The Suslov top (README "3-D bodies") with the constrained body axis a = e3 and I12 = 0: with
+// E = (I1 Omega1^2 + I2 Omega2^2)/2 and c_i = sqrt(2E / I_i), Omega3 = 0, Omega1 = c1 cos(phi),
+// Omega2 = c2 sin(phi), psi = phi - phi0 with phi0 = atan2(I23 c2, I13 c1) obeys
+// psidot = kappa cos(psi), sin(psi(t)) = tanh(kappa t + artanh sin(psi0)),
+// kappa = sqrt((I13 c1)^2 + (I23 c2)^2) / sqrt(I1 I2): the body settles into a steady rotation,
+// attracted at the rate kappa.
+class SuslovExact {
+ public:
+  // Throws std::invalid_argument unless I12 = 0, omega0_3 = 0 and omega0 != 0.
+  SuslovExact(const Eigen::Matrix3d& inertia, const Eigen::Vector3d& omega0);
+  Eigen::Vector3d angular_velocity(double t) const;  // body frame
+  double kappa() const { return kappa_; }
+  double energy() const { return energy_; }
+  // The orientation at each ascending time t >= 0 from q0 (a unit quaternion (w, x, y, z)):
+  // RK4 with steps of at most 1e-4 on qdot = q (x) (0, Omega(t)) / 2, renormalised (error
+  // about 1e-14 at t = 10).
+  std::vector<Eigen::Vector4d> orientations(const Eigen::Vector4d& q0, const std::vector<double>& times) const;
+
+ private:
+  double c1_ = 0, c2_ = 0, phi0_ = 0, kappa_ = 0, energy_ = 0, s0_ = 0;
+};
+
 }  // namespace nonholo::scenarios

@@ -21,6 +21,9 @@ class FrameSink {
  public:
   virtual ~FrameSink() = default;
   virtual void begin(const std::vector<std::string>& coordinates) = 0;
+  // Called before begin() with the names of p's entries (n_v of them; with 3-D rigid bodies not
+  // the coordinates': wx0, wy0, wz0, vx0, ...).
+  virtual void velocities(const std::vector<std::string>& names) { (void)names; }
   virtual void frame(double t, ConstVecRef q, ConstVecRef p, const Diagnostics& d) = 0;
   virtual void end() {}
   // Polled between steps: true ends the run with status=interrupted, as Ctrl-C does.
@@ -43,6 +46,7 @@ struct RunConfig {
   std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner
   int order = 2;                      // reflection: 2, or 4 and 6 by composition
   std::string composition = "auto";   // see composition_from_string (composition.hpp)
+  std::string rotation = "moser-veselov";  // rigid bodies: see rotation_from_string (rattle_options.hpp)
   // Integrate a companion trajectory at dt/2 (ARKODE: tol/100) in the same run and report
   // error_estimate (README "Error estimate").
   bool error_estimate = false;
@@ -101,6 +105,10 @@ struct RunSummary {
   double stability_ratio = std::numeric_limits<double>::quiet_NaN();
   bool has_momentum = false;
   double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|
+  // Reflection on a model with 3-D rigid bodies: the rotation Lagrangian, and the most Newton
+  // iterations a Legendre transform took in the run (-1: not applicable).
+  std::string rotation;
+  long legendre_iterations_max = -1;
 
   // One line of space-separated key=value pairs: the fields below, numbers to 6 digits.
   std::string line() const;

@@ -1,6 +1,7 @@
 #pragma once
-// The built-in scenes of DESIGN.md section 5: each turns a set of parameters into a Model
-// and an initial configuration with a velocity guess (projected onto D at start-up).
+// The built-in scenes: each turns a set of parameters into a Model and an initial
+// configuration with a velocity guess (projected onto D at start-up). q0 has the model's n_q
+// entries, v0 its n_v.
 #include <nonholo/model.hpp>
 #include <nonholo/scenarios/parameters.hpp>
 
@@ -13,8 +14,8 @@ namespace nonholo::scenarios {
 struct SceneSetup {
   Model model;
   double t0 = 0.0;
-  Vector q0;
-  Vector v0;  // velocity guess
+  Vector q0;  // n_q entries
+  Vector v0;  // velocity guess, n_v entries
 };
 
 struct SceneInfo {
@@ -34,6 +35,12 @@ SceneInfo sleigh_contact_scene();
 SceneInfo snakeboard_scene();
 SceneInfo sleigh_chain_scene();
 SceneInfo wheeled_train_scene();
+// 3-D rigid bodies (README "3-D bodies"): q holds quaternions, v0 body-frame angular velocities.
+SceneInfo suslov_scene();
+SceneInfo veselova_scene();
+SceneInfo chaplygin_ball_scene();
+SceneInfo ball_chain_scene();
+SceneInfo rolling_disk_scene();
 
 const std::vector<SceneInfo>& scene_catalogue();
 // Throws std::invalid_argument listing the known scenes.
