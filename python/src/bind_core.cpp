@@ -68,11 +68,28 @@ void assign(Vector& to, const Array& from, const char* what) {
 void check_pair(const PyModel& m, const Workspace& ws) {
   if (&ws.model() != &m.model) throw py::value_error("the workspace was built for another model");
 }
+// q has n_q entries, p and force n_v (the same unless the model has 3-D rigid bodies).
 void check_state(const PyModel& m, const State& s) {
-  const Eigen::Index n = m.model.num_coordinates(), r = m.model.num_one_forms();
-  if (s.q.size() != n || s.p.size() != n || s.force.size() != n || s.lambda.size() != r)
-    throw py::value_error("the state does not have the model's sizes (" + std::to_string(n) + " coordinates, " +
+  const Eigen::Index nq = m.model.num_configuration(), n = m.model.num_velocities(), r = m.model.num_one_forms();
+  if (s.q.size() != nq || s.p.size() != n || s.force.size() != n || s.lambda.size() != r)
+    throw py::value_error("the state does not have the model's sizes (" +
+                          (nq == n ? std::to_string(n) + " coordinates, "
+                                   : std::to_string(nq) + " configuration entries, " + std::to_string(n) +
+                                         " velocities, ") +
                           std::to_string(r) + " one-forms): start it for this model");
+}
+
+// A 3-vector from any sequence of 3 numbers; ValueError naming `what` otherwise.
+Eigen::Vector3d vector3(const py::object& v, const std::string& what) {
+  auto a = Array::ensure(v);
+  if (!a) {
+    PyErr_Clear();
+    throw py::value_error(what + ": expected 3 numbers, got " + callback_detail::type_name(v));
+  }
+  if (a.ndim() != 1 || a.size() != 3)
+    throw py::value_error(what + ": expected 3 numbers, got an array of " + std::to_string(a.size()) + " in " +
+                          std::to_string(a.ndim()) + " dimension(s)");
+  return {a.data()[0], a.data()[1], a.data()[2]};
 }
 
 // Runs f with the GIL released when the model calls no Python.
@@ -157,10 +174,13 @@ All but h are keyword arguments. Invalid values raise ValueError with the librar
 in the constructor and on assignment to an attribute (an assignment is checked together with
 the other fields, so set `order` before a `composition` of that order). hitch is 'holonomic'
 or 'oneform'; restart is 'auto', '0' (never) or a number of steps K; composition is 'auto',
-'triple-jump', 'suzuki5' (order 4), 'yoshida7' or 'kahan-li9' (order 6).)");
+'triple-jump', 'suzuki5' (order 4), 'yoshida7' or 'kahan-li9' (order 6); rotation (models with 3-D
+rigid bodies: the rotation's discrete Lagrangian) is 'moser-veselov', 'moser-veselov-f' or
+'exponential'.)");
   c.def(py::init([](double h, double min_pivot_ratio, const std::string& hitch, double gap_tolerance,
                     double gap_tolerance_limit, int max_gap_iterations, const std::string& restart,
-                    double restart_tolerance, int monitor_every, int order, const std::string& composition) {
+                    double restart_tolerance, int monitor_every, int order, const std::string& composition,
+                    const std::string& rotation) {
           RattleOptions o;
           o.h = h;
           o.min_pivot_ratio = min_pivot_ratio;
@@ -173,6 +193,7 @@ or 'oneform'; restart is 'auto', '0' (never) or a number of steps K; composition
           o.restart.monitor_every = monitor_every;
           o.order = order;
           o.composition = composition_from_string(composition);
+          o.rotation = rotation_from_string(rotation);
           validate(o);
           return o;
         }),
@@ -181,7 +202,7 @@ or 'oneform'; restart is 'auto', '0' (never) or a number of steps K; composition
         py::arg("gap_tolerance_limit") = d.gap_tolerance_limit, py::arg("max_gap_iterations") = d.max_gap_iterations,
         py::arg("restart") = restart_spec(d.restart), py::arg("restart_tolerance") = d.restart.tolerance,
         py::arg("monitor_every") = d.restart.monitor_every, py::arg("order") = d.order,
-        py::arg("composition") = to_string(d.composition));
+        py::arg("composition") = to_string(d.composition), py::arg("rotation") = to_string(d.rotation));
 
   // A validated attribute: changed on a copy, checked whole, then kept.
   auto field = [&c](const char* name, auto get, auto set) {
@@ -213,6 +234,8 @@ or 'oneform'; restart is 'auto', '0' (never) or a number of steps K; composition
   field("order", [](const RattleOptions& o) { return o.order; }, [](RattleOptions& o, int v) { o.order = v; });
   field("composition", [](const RattleOptions& o) { return std::string(to_string(o.composition)); },
         [](RattleOptions& o, const std::string& v) { o.composition = composition_from_string(v); });
+  field("rotation", [](const RattleOptions& o) { return std::string(to_string(o.rotation)); },
+        [](RattleOptions& o, const std::string& v) { o.rotation = rotation_from_string(v); });
   c.def("__repr__", [](const RattleOptions& o) {
     std::ostringstream os;
     os << "RattleOptions(h=" << num(o.h) << ", min_pivot_ratio=" << num(o.min_pivot_ratio) << ", hitch='"
@@ -220,7 +243,7 @@ or 'oneform'; restart is 'auto', '0' (never) or a number of steps K; composition
        << ", gap_tolerance_limit=" << num(o.gap_tolerance_limit) << ", max_gap_iterations=" << o.max_gap_iterations
        << ", restart='" << restart_spec(o.restart) << "', restart_tolerance=" << num(o.restart.tolerance)
        << ", monitor_every=" << o.restart.monitor_every << ", order=" << o.order << ", composition='"
-       << to_string(o.composition) << "')";
+       << to_string(o.composition) << "', rotation='" << to_string(o.rotation) << "')";
     return os.str();
   });
 }
@@ -246,11 +269,60 @@ TimeFunction time_function(PyBuilder& b, const py::object& f, const char* name) 
   return time_callback(std::string("thrust ") + name + "(t)", callable(b, f));
 }
 
+// A rigid body's inertia: a 3x3 matrix, its 3 principal moments (a diagonal inertia) or one
+// number J (the isotropic J Id). The builder checks the values (SPD, conditioning).
+Eigen::Matrix3d inertia_of(const py::object& inertia) {
+  auto a = Array::ensure(inertia);
+  if (!a) {
+    PyErr_Clear();
+    throw py::value_error("add_rigid_body: inertia must be a 3x3 matrix, 3 principal moments or one number, got " +
+                          callback_detail::type_name(inertia));
+  }
+  const double* x = a.data();
+  if (a.ndim() == 0) return x[0] * Eigen::Matrix3d::Identity();
+  if (a.ndim() == 1 && a.size() == 3) return Eigen::Vector3d(x[0], x[1], x[2]).asDiagonal();
+  if (a.ndim() == 2 && a.shape(0) == 3 && a.shape(1) == 3)
+    return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(x);
+  std::string shape = "(";
+  for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
+  shape += a.ndim() == 1 ? ",)" : ")";
+  throw py::value_error("add_rigid_body: inertia must be a 3x3 matrix, 3 principal moments or one number, got an "
+                        "array of shape " + shape);
+}
+
+// A body torque's or force's function: a callable of t returning 3 numbers, or 3 numbers (a
+// constant: no Python at step time).
+TimeVector time_vector(PyBuilder& b, const py::object& f, const char* element, const char* what, int body,
+                       const char* expected) {
+  if (f.is_none())
+    throw py::type_error(std::string("add_") + element + ": " + what +
+                         " must be a callable of t or 3 numbers, got None");
+  if (!PyCallable_Check(f.ptr())) {
+    const Eigen::Vector3d value = vector3(f, std::string("add_") + element + ": " + what);
+    return [value](double) { return value; };
+  }
+  return time_vector_callback(std::string(what) + "(t) of body " + std::to_string(body), expected, callable(b, f));
+}
+
+// Runs add(); a call the builder refuses leaves calls_python as it was (its callable is not kept).
+template <class Add>
+void unless_refused(PyBuilder& b, Add&& add) {
+  const bool before = b.calls_python;
+  try {
+    add();
+  } catch (...) {
+    b.calls_python = before;
+    throw;
+  }
+}
+
 void bind_builder(py::module_& m) {
   py::class_<PyBuilder>(m, "ModelBuilder", R"(Builds a Model, validating everything it is given (ValueError names the body,
 row or column at fault). Callbacks are Python callables given copies of q (and qdot, p) as
 1-D float64 arrays; those filling a vector return a 1-D array (or sequence) of its length.
-Rows from add_one_form cannot be mixed with element rows (add_knife_edge, add_hitch).)")
+Rows from add_one_form cannot be mixed with element rows (add_knife_edge, add_hitch, the
+rigid-body constraints). With 3-D rigid bodies (add_rigid_body) q has n_q entries and every
+vector in velocity space (rows' columns, gradients, forces, generators) n_v (Model.num_velocities).)")
       .def(py::init<>())
       .def("add_body", [](PyBuilder& b, const std::vector<std::string>& names, const Eigen::MatrixXd& mass_block) {
             return b.builder.add_body(names, mass_block);
@@ -263,6 +335,23 @@ Rows from add_one_form cannot be mixed with element rows (add_knife_edge, add_hi
             return b.builder.add_planar_body({names[0], names[1], names[2]}, mass, inertia);
           }, py::arg("names"), py::arg("mass"), py::arg("inertia"),
           "A planar rigid body (x, y, theta of its centre of mass), M = diag(m, m, I); returns its index.")
+      .def("add_rigid_body", [](PyBuilder& b, double mass, const py::object& inertia, int translation,
+                                std::string name) {
+            RigidBody body;
+            body.mass = mass;
+            body.inertia = inertia_of(inertia);
+            body.translation = translation;
+            body.name = std::move(name);
+            return b.builder.add_rigid_body(body);
+          }, py::arg("mass") = 1.0, py::arg("inertia") = 1.0,
+          py::arg("translation") = 0, py::arg("name") = "",
+          R"(A 3-D rigid body (core/include/nonholo/rigid_body.hpp); returns its index. Its configuration
+is a unit quaternion (w, x, y, z) and the position of its centre in R^d, d = translation: 0 (a
+fixed point), 2 (the centre moves in a horizontal plane) or 3 (free); its velocities are the
+body-frame angular velocity Omega, then the centre's velocity. inertia: the central inertia in
+the body frame, a 3x3 SPD matrix, its 3 principal moments or one number J (J Id). Coordinates
+are named qw<name>, qx<name>, ..., x<name>; velocities wx<name>, ..., vx<name> (name: the
+body's index when empty).)")
       .def("reserve", [](PyBuilder& b, int bodies, int coordinates, int rows, int values) {
             b.builder.reserve(bodies, coordinates, rows, values);
           }, py::arg("bodies"), py::arg("coordinates"), py::arg("rows"), py::arg("values"))
@@ -310,6 +399,53 @@ Rows from add_one_form cannot be mixed with element rows (add_knife_edge, add_hi
             b.builder.add_thrust(std::move(t));
           }, py::arg("body"), py::arg("force") = py::none(), py::arg("torque") = py::none(),
           "force(t) along the body's heading and torque(t) on its angle: each None, a number or a callable of t.")
+      .def("add_body_axis_constraint", [](PyBuilder& b, int body, const py::object& axis, std::string label) {
+            return b.builder.add_body_axis_constraint({body, vector3(axis, "add_body_axis_constraint: axis")},
+                                                      std::move(label));
+          }, py::arg("body"), py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("label") = "",
+          "<Omega, a> = 0 with a fixed in the body (the Suslov problem): one row; returns its index.")
+      .def("add_space_axis_constraint", [](PyBuilder& b, int body, const py::object& axis, std::string label) {
+            return b.builder.add_space_axis_constraint({body, vector3(axis, "add_space_axis_constraint: axis")},
+                                                       std::move(label));
+          }, py::arg("body"), py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("label") = "",
+          "<Omega, R^T e> = 0 with e fixed in space (the Veselova problem): one row; returns its index.")
+      .def("add_rolling_ball", [](PyBuilder& b, int body, double radius, std::string label) {
+            return b.builder.add_rolling_ball({body, radius}, std::move(label));
+          }, py::arg("body"), py::arg("radius") = 1.0, py::arg("label") = "",
+          R"(A ball (centre of mass at its centre: the Chaplygin ball) rolling without slipping on z = 0:
+two rows, and a holonomic height row with translation 3; returns the first row's index.)")
+      .def("add_rolling_disk", [](PyBuilder& b, int body, double radius, std::string label) {
+            return b.builder.add_rolling_disk({body, radius}, std::move(label));
+          }, py::arg("body"), py::arg("radius") = 1.0, py::arg("label") = "",
+          R"(A thin disk (its axis the body's e3) rolling without slipping on z = 0: three rows, the
+vertical one holonomic; the body needs translation 3. Returns the first row's index.)")
+      .def("add_rod", [](PyBuilder& b, int first, int second, double length, std::string label) {
+            return b.builder.add_rod({first, second, length}, std::move(label));
+          }, py::arg("first"), py::arg("second"), py::arg("length"), py::arg("label") = "",
+          "A massless rod of this length between two bodies' centres (one holonomic row); returns its index.")
+      .def("add_gravity", [](PyBuilder& b, double g) { b.builder.add_gravity(g); }, py::arg("g") = 9.81,
+          "Gravity g along -e3 on every rigid body with translation 3 (an external force -m g e3).")
+      .def("add_body_torque", [](PyBuilder& b, int body, const py::object& torque) {
+            unless_refused(b, [&] {
+              b.builder.add_body_torque(
+                  {body, time_vector(b, torque, "body_torque", "body torque", body, "the torque in the body frame")});
+            });
+          }, py::arg("body"), py::arg("torque"),
+          "torque(t) -> 3 numbers, the torque on a rigid body in its body frame (or 3 numbers: constant).")
+      .def("add_body_force", [](PyBuilder& b, int body, const py::object& force) {
+            unless_refused(b, [&] {
+              b.builder.add_body_force(
+                  {body, time_vector(b, force, "body_force", "body force", body, "the force on the centre, in space")});
+            });
+          }, py::arg("body"), py::arg("force"),
+          R"(force(t) -> 3 numbers, the force on a rigid body's centre in space (or 3 numbers: constant);
+a body moving in a plane ignores the vertical component.)")
+      .def("symmetry", [](PyBuilder& b, const std::string& name, py::object generator) {
+            b.builder.symmetry(name, generator_callback(name, callable(b, std::move(generator))));
+          }, py::arg("name"), py::arg("generator"),
+          R"(A horizontal symmetry by its generator xi(q) -> n_v values (velocity entries: a rigid body's
+Omega in its body frame, then its centre's velocity), lying in the constraint distribution. Its
+momentum map J = <xi(q), p> is added under `name`, and the restarts keep it exactly.)")
       .def_property_readonly("calls_python", [](const PyBuilder& b) { return b.calls_python; })
       .def("build", [](const PyBuilder& b) { return PyModel{b.builder.build(), b.calls_python}; },
           "The immutable Model (the builder can go on being used).");
@@ -317,12 +453,21 @@ Rows from add_one_form cannot be mixed with element rows (add_knife_edge, add_hi
 
 void bind_model(py::module_& m) {
   py::class_<PyModel>(m, "Model", "An immutable model (ModelBuilder.build()).")
-      .def_property_readonly("num_coordinates", [](const PyModel& p) { return p.model.num_coordinates(); })
+      .def_property_readonly("num_coordinates", [](const PyModel& p) { return p.model.num_coordinates(); },
+                             "The velocity count n_v (its older name: every body was planar then, n_q = n_v).")
+      .def_property_readonly("num_configuration", [](const PyModel& p) { return p.model.num_configuration(); },
+                             "n_q, the size of q (n_v plus one per 3-D rigid body: a quaternion against Omega).")
+      .def_property_readonly("num_velocities", [](const PyModel& p) { return p.model.num_velocities(); },
+                             "n_v, the size of p, of forces, of a row of mu and of a symmetry's generator.")
       .def_property_readonly("num_bodies", [](const PyModel& p) { return p.model.num_bodies(); })
       .def_property_readonly("num_one_forms", [](const PyModel& p) { return p.model.num_one_forms(); })
       .def_property_readonly("num_one_form_values", [](const PyModel& p) { return p.model.num_one_form_values(); })
       .def_property_readonly("num_holonomic", [](const PyModel& p) { return p.model.num_holonomic(); })
-      .def_property_readonly("coordinate_names", [](const PyModel& p) { return p.model.coordinate_names(); })
+      .def_property_readonly("coordinate_names", [](const PyModel& p) { return p.model.coordinate_names(); },
+                             "The names of the n_q entries of q.")
+      .def_property_readonly("velocity_names", [](const PyModel& p) { return p.model.velocity_names(); },
+                             "The names of the n_v velocity entries (coordinate_names unless there are rigid bodies).")
+      .def_property_readonly("has_rigid_bodies", [](const PyModel& p) { return p.model.has_rigid_bodies(); })
       .def_property_readonly("holonomic_rows", [](const PyModel& p) { return p.model.holonomic_rows(); })
       .def_property_readonly("momentum_map_names", [](const PyModel& p) {
         std::vector<std::string> names;
@@ -339,7 +484,13 @@ void bind_model(py::module_& m) {
       .def("body", [](const PyModel& p, int b) {
             if (b < 0 || b >= p.model.num_bodies()) throw py::index_error("body " + std::to_string(b) + " out of range");
             return py::make_tuple(p.model.body(b).offset, p.model.body(b).size);
-          }, py::arg("b"), "(first coordinate, number of coordinates) of body b.")
+          }, py::arg("b"), R"((first entry, number of entries) of body b in the velocities (p, forces, columns of mu);
+the same as in q unless a 3-D rigid body comes first or it is one (body_configuration).)")
+      .def("body_configuration", [](const PyModel& p, int b) {
+            if (b < 0 || b >= p.model.num_bodies())
+              throw py::index_error("body " + std::to_string(b) + " out of range");
+            return py::make_tuple(p.model.body(b).q_offset, p.model.body(b).q_size);
+          }, py::arg("b"), "(first entry, number of entries) of body b in the configuration q.")
       .def("mass_block", [](const PyModel& p, int b) {
             if (b < 0 || b >= p.model.num_bodies()) throw py::index_error("body " + std::to_string(b) + " out of range");
             const Body& body = p.model.body(b);
@@ -357,8 +508,8 @@ void bind_model(py::module_& m) {
             return rows;
           }, "The columns of each one-form row (the pattern of one_form_values).")
       .def("one_form_values", [](const PyModel& p, const Vector& q) {
-            if (q.size() != p.model.num_coordinates())
-              throw py::value_error("one_form_values: expected " + std::to_string(p.model.num_coordinates()) +
+            if (q.size() != p.model.num_configuration())
+              throw py::value_error("one_form_values: expected " + std::to_string(p.model.num_configuration()) +
                                     " coordinates, got " + std::to_string(q.size()));
             Vector mu = Vector::Zero(p.model.num_one_form_values());
             if (mu.size() > 0) p.model.one_form_values(q, mu);
@@ -366,8 +517,10 @@ void bind_model(py::module_& m) {
           }, py::arg("q"), "mu(q)'s entries in pattern order.")
       .def("__repr__", [](const PyModel& p) {
         std::ostringstream os;
-        os << "<nonholo.Model: " << p.model.num_bodies() << " bodies, " << p.model.num_coordinates() << " coordinates, "
-           << p.model.num_one_forms() << " one-forms>";
+        os << "<nonholo.Model: " << p.model.num_bodies() << " bodies, " << p.model.num_configuration()
+           << " coordinates, ";
+        if (p.model.num_velocities() != p.model.num_configuration()) os << p.model.num_velocities() << " velocities, ";
+        os << p.model.num_one_forms() << " one-forms>";
         return os.str();
       });
 }
@@ -431,7 +584,10 @@ void bind_stepping(py::module_& m) {
       .def_readonly("factorizations", &Workspace::factorizations)
       .def_readonly("parasitic", &Workspace::parasitic, "The parasitic amplitude the last step measured (NaN if none).")
       .def_readonly("restarted", &Workspace::restarted, "Whether the last step restarted the multipliers.")
-      .def_readonly("gap_iterations", &Workspace::gap_iterations);
+      .def_readonly("gap_iterations", &Workspace::gap_iterations)
+      .def_readonly("legendre_iterations", &Workspace::legendre_iterations,
+                    "Rigid bodies: the most Newton iterations a discrete Legendre transform has taken so far "
+                    "(0 for the closed forms).");
 
   m.def("start_from_velocity",
         [](const PyModel& model, Workspace& ws, double t0, const Vector& q0, const Vector& v0,
@@ -446,15 +602,20 @@ void bind_stepping(py::module_& m) {
         },
         py::arg("model"), py::arg("ws"), py::arg("t0"), py::arg("q0"), py::arg("v0"), py::kw_only(),
         py::arg("multiplier") = "continuous", py::arg("min_pivot_ratio") = StartOptions{}.min_pivot_ratio,
-        "The state at (t0, q0) with the velocity guess v0 projected M-orthogonally onto D(q0).");
+        R"(The state at (t0, q0) with the velocity guess v0 projected M-orthogonally onto D(q0). q0 has
+n_q entries (a rigid body's quaternion of norm 1 within 1e-6, normalised here), v0 n_v (a rigid
+body: Omega in its body frame, then its centre's velocity).)");
   m.def("start_from_two_points",
         [](const PyModel& model, Workspace& ws, double t0, const Vector& q0, const Vector& q1, double h,
-           double tolerance) {
+           double tolerance, const std::string& rotation) {
           check_pair(model, ws);
-          return start_from_two_points(model.model, ws, t0, q0, q1, h, tolerance);
+          return start_from_two_points(model.model, ws, t0, q0, q1, h, tolerance, rotation_from_string(rotation));
         },
         py::arg("model"), py::arg("ws"), py::arg("t0"), py::arg("q0"), py::arg("q1"), py::arg("h"),
-        py::arg("tolerance") = 1e-10, "The paper's start from (q0, q1) in M0: the first step lands on q1.");
+        py::arg("tolerance") = 1e-10, py::kw_only(), py::arg("rotation") = to_string(RattleOptions{}.rotation),
+        R"(The paper's start from (q0, q1) in M0: the first step lands on q1. With rigid bodies the
+post-momentum is the discrete Legendre transform of (q0, q1) for `rotation`: step with the same
+RattleOptions.rotation.)");
   m.def("step", &one_step, py::arg("model"), py::arg("ws"), py::arg("state"), py::arg("options"),
         R"(One step. Returns a Status and never raises for a failed step: the state is then left as it
 was and ws.message says why (a Python callback that raised gives Status.CallbackFailed with its
@@ -512,6 +673,39 @@ those taken). Runs without the GIL when the model calls no Python (Model.calls_p
 velocity guess start_from_velocity projects) and the scene's default dt and t_end.)");
 }
 
+// The quaternion helpers of nonholo/rigid_body.hpp.
+void bind_quaternions(py::module_& m) {
+  m.def("axis_angle_quaternion",
+        [](const py::object& axis, double angle) {
+          const Eigen::Vector4d q = axis_angle_quaternion(vector3(axis, "axis_angle_quaternion: axis"), angle);
+          return py::array_t<double>(4, q.data());
+        },
+        py::arg("axis"), py::arg("angle"),
+        "The unit quaternion (w, x, y, z) of the rotation by angle about axis (normalised; nonzero and finite).");
+  m.def("quaternion_matrix",
+        [](const py::object& q) {
+          auto a = Array::ensure(q);
+          if (!a) {
+            PyErr_Clear();
+            throw py::value_error("quaternion_matrix: expected 4 numbers (w, x, y, z), got " +
+                                  callback_detail::type_name(q));
+          }
+          if (a.ndim() != 1 || a.size() != 4)
+            throw py::value_error("quaternion_matrix: expected 4 numbers (w, x, y, z), got an array of " +
+                                  std::to_string(a.size()) + " in " + std::to_string(a.ndim()) + " dimension(s)");
+          const Eigen::Vector4d v(a.data()[0], a.data()[1], a.data()[2], a.data()[3]);
+          if (!v.allFinite() || !(v.norm() > 0.0)) {
+            std::ostringstream os;
+            os << "quaternion_matrix: q = (" << num(v[0]) << ", " << num(v[1]) << ", " << num(v[2]) << ", " << num(v[3])
+               << ") must be finite and nonzero";
+            throw py::value_error(os.str());
+          }
+          return Eigen::Matrix3d(quaternion_matrix(v));
+        },
+        py::arg("q"),
+        "The rotation matrix R of the quaternion q / |q| (w, x, y, z): R x = q x q^*, columns the body axes in space.");
+}
+
 }  // namespace
 
 void bind_core(py::module_& m) {
@@ -535,6 +729,7 @@ void bind_core(py::module_& m) {
   bind_model(m);
   bind_state(m);
   bind_stepping(m);
+  bind_quaternions(m);
 }
 
 }  // namespace nonholo::python

@@ -148,14 +148,14 @@ inline Potential potential_callback(pybind11::object f) {
 }
 
 inline PotentialGradient gradient_callback(pybind11::object f) {
-  return vector_of_q(std::move(f), "potential gradient(q)", "one per coordinate");
+  return vector_of_q(std::move(f), "potential gradient(q)", "one per velocity coordinate");
 }
 
 inline ExternalForce force_callback(pybind11::object f) {
   return [c = Callable(std::move(f))](double t, ConstVecRef q, VecRef force) {
     const char* name = "external_force(t, q)";
     callback_detail::invoke(name, [&] {
-      callback_detail::copy_result(c(t, callback_detail::copy(q)), force, name, "one per coordinate");
+      callback_detail::copy_result(c(t, callback_detail::copy(q)), force, name, "one per velocity coordinate");
     });
   };
 }
@@ -165,6 +165,26 @@ inline MomentumMap momentum_map_callback(const std::string& map, pybind11::objec
     return callback_detail::invoke(name.c_str(), [&] {
       return callback_detail::to_double(c(callback_detail::copy(q), callback_detail::copy(p)), name.c_str());
     });
+  };
+}
+
+// xi(q) of a symmetry (ModelBuilder.symmetry): n_v entries, in the constraint distribution.
+inline SymmetryGenerator generator_callback(const std::string& symmetry, pybind11::object f) {
+  return [c = Callable(std::move(f)), name = "symmetry '" + symmetry + "' generator(q)"](ConstVecRef q, VecRef xi) {
+    callback_detail::invoke(name.c_str(), [&] {
+      callback_detail::copy_result(c(callback_detail::copy(q)), xi, name.c_str(),
+                                   "one per velocity coordinate: a rigid body's Omega, then its centre's velocity");
+    });
+  };
+}
+
+// f(t) -> 3 numbers (a rigid body's torque or force, elements.hpp's TimeVector).
+inline std::function<Eigen::Vector3d(double)> time_vector_callback(const std::string& name, const char* expected,
+                                                                   pybind11::object f) {
+  return [c = Callable(std::move(f)), name, expected](double t) {
+    Eigen::Vector3d out;
+    callback_detail::invoke(name.c_str(), [&] { callback_detail::copy_result(c(t), out, name.c_str(), expected); });
+    return out;
   };
 }
 
