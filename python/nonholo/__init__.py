@@ -104,7 +104,7 @@ def _assignments(name, values, form):
 
 
 def _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                   monitor_every, composition, error_estimate, project, tol):
+                   monitor_every, composition, error_estimate, project, tol, rotation=None):
     args = [_os.fspath(scene)]
 
     def option(flag, value, form=_number):
@@ -122,6 +122,7 @@ def _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart
     option("--restart-tol", restart_tol)
     option("--monitor-every", monitor_every, _integer)
     option("--composition", composition, text)
+    option("--rotation", rotation, text)
     option("--tol", tol)
     if error_estimate:
         args.append("--error-estimate")
@@ -145,20 +146,21 @@ def _finish(result, d, check, what):
 
 def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=None, every=None,
         backend=None, restart=None, restart_tol=None, monitor_every=None, composition=None,
-        error_estimate=False, project=False, tol=None, out=None, check=False):
+        error_estimate=False, project=False, tol=None, rotation=None, out=None, check=False):
     """Integrates one scene (a built-in name or a scene file) as `nonholo run` does and
     returns a RunResult with its frames and summary.
 
     Every option is the command line's (None: the tool's default): dt, t_end, set (a dict of
     scene parameters, or "NAME=VALUE" strings), method, order, hitch, every (keep every K-th
     step and the last), backend, restart ("auto", 0 or K), restart_tol, monitor_every,
-    composition, error_estimate, project, tol; out also writes the CLI's file (CSV, or HDF5
-    for .h5). Bad options raise ValueError with the tool's message; a failed step ends the
+    composition, error_estimate, project, tol, rotation (scenes with 3-D rigid bodies:
+    "moser-veselov", "moser-veselov-f" or "exponential"); out also writes the CLI's file (CSV,
+    or HDF5 for .h5). With rigid bodies q holds each body's quaternion (w, x, y, z) and centre. Bad options raise ValueError with the tool's message; a failed step ends the
     run early with summary["status"] saying why (check=True raises RunError instead). Ctrl-C
     raises KeyboardInterrupt with the frames so far in its .result.
     """
     args = _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                          monitor_every, composition, error_estimate, project, tol)
+                          monitor_every, composition, error_estimate, project, tol, rotation)
     if every is not None:
         args.extend(["--every", _integer("--every", every)])
     if out is not None:
@@ -170,14 +172,14 @@ def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=
 def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None, t_end=None, set=None,
           method=None, order=None, hitch=None, backend=None, restart=None, restart_tol=None,
           monitor_every=None, composition=None, error_estimate=False, project=False, tol=None,
-          check=False):
+          rotation=None, check=False):
     """Many trajectories of one scene in parallel, as `nonholo batch` does: count
     trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
     from seed, threads (default: all cores), out (the CLI's CSV, or HDF5 for .h5) and run()'s
     options. Returns a BatchResult; failed trajectories are reported in its columns["status"]
     and messages (check=True raises RunError if any failed)."""
     args = _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                          monitor_every, composition, error_estimate, project, tol)
+                          monitor_every, composition, error_estimate, project, tol, rotation)
     args.extend(["--count", _integer("--count", count)])
     if threads is not None:
         args.extend(["--threads", _integer("--threads", threads)])

@@ -5,6 +5,8 @@ constraints, unit quaternions, a declared symmetry's momentum map), independent 
 with Python callables; then the failures (h |Omega| too large, set-up mistakes, callbacks of
 the wrong size) and the rotation option."""
 import math
+import os
+import subprocess
 
 import numpy as np
 import pytest
@@ -299,30 +301,41 @@ def test_bad_vectors_for_start_and_state():
 
 
 def test_a_generator_of_the_wrong_size_is_reported():
-    model = chaplygin_ball(generator=lambda q: spin_generator(q)[:3])  # gamma alone: 3 of 5 values
-    ws, s = ball_start(model)  # the start does not call it
     message = ("symmetry 'spin' generator(q) returned an array of shape (3,), expected 5 values (one per velocity "
                "coordinate: a rigid body's Omega, then its centre's velocity)")
+    # The start evaluates every generator at q0 ...
     with pytest.raises(ValueError) as error:
-        nonholo.momentum_maps(model, s)
+        ball_start(chaplygin_ball(generator=lambda q: spin_generator(q)[:3]))  # gamma alone: 3 of 5 values
     assert str(error.value) == message
+    # ... and one that goes wrong later (here past q0, whose qw is 0.9394) fails the step with the state kept.
+    model = chaplygin_ball(generator=lambda q: spin_generator(q)[:3] if q[0] < 0.938 else spin_generator(q))
+    ws, s = ball_start(model)
     before = (s.q, s.p, s.lam, s.force)
     assert nonholo.step(model, ws, s, nonholo.RattleOptions(0.01, restart="1")) == nonholo.Status.CallbackFailed
     assert ws.message == "a model callback threw: " + message
     for x, y in zip(before, (s.q, s.p, s.lam, s.force)):
         np.testing.assert_array_equal(x, y)
     assert s.steps == 0
+    with pytest.raises(ValueError) as error:
+        nonholo.momentum_maps(model, nonholo.start_from_velocity(model, ws, 0.0, np.concatenate(
+            [nonholo.axis_angle_quaternion([1.0, 2.0, 3.0], 1.0), [0.0, 0.0]]), [0.0, 0.0, 0.0, 0.0, 0.0]))
+    assert str(error.value) == message
 
 
 def test_a_generator_that_raises_fails_the_step_with_its_text():
-    def generator(q):
+    def raising(q):
         raise ArithmeticError(f"no spin at qw = {q[0]:.3f}")
+    with pytest.raises(ArithmeticError, match="no spin at qw = 0.939"):  # the start evaluates it at q0
+        ball_start(chaplygin_ball(generator=raising))
+    def generator(q):  # raises past q0 only
+        return raising(q) if q[0] < 0.938 else spin_generator(q)
     model = chaplygin_ball(generator=generator)
     ws, s = ball_start(model)
     assert nonholo.step(model, ws, s, nonholo.RattleOptions(0.01, restart="1")) == nonholo.Status.CallbackFailed
     assert "symmetry 'spin' generator(q) raised ArithmeticError: no spin at qw = 0.937" in ws.message  # at q_1
     with pytest.raises(ArithmeticError, match="no spin"):
-        nonholo.momentum_maps(model, s)
+        nonholo.momentum_maps(model, nonholo.start_from_velocity(model, ws, 0.0, np.concatenate(
+            [nonholo.axis_angle_quaternion([1.0, 2.0, 3.0], 1.0), [0.0, 0.0]]), [0.0, 0.0, 0.0, 0.0, 0.0]))
 
 
 def free_body(force, torque, gravity=9.81):
@@ -484,3 +497,32 @@ def test_quaternion_helpers_against_rodrigues():
         nonholo.quaternion_matrix([0, 0, 0, 0])
     with pytest.raises(ValueError, match="quaternion_matrix: expected 4 numbers"):
         nonholo.quaternion_matrix(np.eye(2))
+
+
+# --- the 3-D scenes through run() and batch(), as the command line runs them -----------------
+
+@pytest.mark.parametrize("scene", ["suslov", "veselova", "chaplygin_ball", "ball_chain", "rolling_disk"])
+def test_the_three_d_scenes_run_from_python_as_from_the_command_line(scene):
+    r = nonholo.run(scene, t_end=1.0, every=10)
+    assert r.status == "ok", r.summary["message"]
+    assert r.summary["rotation"] == "moser-veselov"
+    assert r.summary["legendre_iterations_max"] >= 0
+    assert r.coordinates[:4] == ["qw0", "qx0", "qy0", "qz0"]
+    # every frame's quaternions are unit (renormalised every step)
+    for b in range(r.summary["bodies"]):
+        at = r.coordinates.index("qw%d" % b)
+        np.testing.assert_allclose(np.linalg.norm(r.q[:, at:at + 4], axis=1), 1.0, rtol=0, atol=4e-16)
+    cli = subprocess.run([os.environ["NONHOLO_CLI"], "run", scene, "--t-end", "1"], capture_output=True, text=True)
+    assert cli.returncode == 0
+    assert "legendre_iterations_max=%d" % r.summary["legendre_iterations_max"] in cli.stdout
+
+
+def test_rotation_reaches_the_run_and_a_bad_one_is_refused():
+    mv = nonholo.run("suslov", t_end=20.0, restart=0)
+    ex = nonholo.run("suslov", t_end=20.0, restart=0, rotation="exponential")
+    assert ex.summary["rotation"] == "exponential"
+    assert mv.summary["energy_post_rel_err_max"] < 1e-13 < 1e-7 < ex.summary["energy_post_rel_err_max"]
+    with pytest.raises(ValueError, match="--rotation: unknown rotation Lagrangian 'cayley'"):
+        nonholo.run("suslov", rotation="cayley")
+    b = nonholo.batch("chaplygin_ball", count=4, vary={"Omega3": (1.0, 3.0)}, t_end=1.0, rotation="moser-veselov-f")
+    assert b.summary["rotation"] == "moser-veselov-f" and b.summary["failed"] == 0

@@ -41,8 +41,8 @@ int drift(const Model& model, RotationLagrangian rotation, double h, const doubl
     iterations = std::max(iterations, taken);
     const Vec4 turned = compose_normalised(quaternion_at(q + r.q), w);
     for (int i = 0; i < 4; ++i) q_out[r.q + i] = turned[i];
-    if (p_out) {  // p_Omega <- W^T p_Omega
-      const Vec3 arrived = rotation_of(w).transpose() * p_omega;
+    if (p_out) {  // p_Omega <- W^T p_Omega; an isotropic body turns about p_Omega itself: W^T p = p
+      const Vec3 arrived = r.isotropic ? p_omega : rotate_back(w, p_omega);
       for (int i = 0; i < 3; ++i) p_out[r.v + i] = arrived[i];
     }
     for (int i = 0; i < r.translation; ++i) {

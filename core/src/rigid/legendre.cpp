@@ -14,15 +14,17 @@ constexpr double kQuarterTurn = 1.5707963267948966;  // pi / 2
 
 bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
-// One Newton update x -= J^-1 r; false for a singular or non-finite Jacobian. Sets `small` when
-// the update is below 4 eps |x| (converged to round-off: quadratic convergence leaves nothing
-// for another iteration to gain).
-bool newton_update(const Mat3& jacobian, const Vec3& residual, Vec3& x, bool& small) {
-  const double det = jacobian.determinant();
+// One Newton update x -= J^-1 r, J^-1 from its adjugate (one division); false for a singular
+// or non-finite Jacobian. Sets `small` when the update is below 4 eps |x| (converged to
+// round-off: quadratic convergence leaves nothing for another iteration to gain) and `det`
+// to det J. Squared norms: no square roots in the iteration.
+bool newton_update(const Mat3& j, const Vec3& r, Vec3& x, bool& small, double& det) {
+  const Vec3 c0 = j.col(1).cross(j.col(2)), c1 = j.col(2).cross(j.col(0)), c2 = j.col(0).cross(j.col(1));
+  det = j.col(0).dot(c0);
   if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
-  const Vec3 dx = jacobian.inverse() * residual;
+  const Vec3 dx = Vec3(c0.dot(r), c1.dot(r), c2.dot(r)) / det;  // rows of J^-1 are the c_i / det
   x -= dx;
-  small = dx.norm() <= 4.0 * kEps * x.norm();
+  small = dx.squaredNorm() <= 16.0 * kEps * kEps * x.squaredNorm();
   return finite(x);
 }
 
@@ -36,21 +38,27 @@ bool solve_moser_veselov(const RigidBlock& b, const Vec3& hp, Vec3& v, int& iter
     return true;
   }
   v = 0.5 * (b.inverse_inertia * hp);
-  Mat3 jacobian;
+  double det = 0.0;
   for (;;) {
     const Vec3 iv = b.inertia * v;
-    const Vec3 r = 2.0 * (iv + v.cross(iv)) - hp * (1.0 + v.squaredNorm());
-    jacobian = 2.0 * (b.inertia + hat(v) * b.inertia - hat(iv)) - 2.0 * hp * v.transpose();
+    const Vec3 lhs = 2.0 * (iv + v.cross(iv)), rhs = hp * (1.0 + v.squaredNorm());
+    const Vec3 r = lhs - rhs;
+    // Solved to round-off once the residual is a few ulps of the terms it balances (the
+    // confirming iteration then needs no Jacobian); the update test below is the fallback.
+    if (iterations > 0 && r.cwiseAbs().maxCoeff() <= 4.0 * kEps * std::max(lhs.cwiseAbs().maxCoeff(), rhs.cwiseAbs().maxCoeff()))
+      break;
+    Mat3 jacobian;  // 2 (I + hat(v) I - hat(I v)) - 2 h p v^T
+    for (int c = 0; c < 3; ++c) jacobian.col(c) = 2.0 * (b.inertia.col(c) + v.cross(b.inertia.col(c)) - hp * v[c]);
+    jacobian -= 2.0 * hat(iv);
     bool small = false;
-    if (iterations == kMaxLegendreIterations || !newton_update(jacobian, r, v, small)) return false;
+    if (iterations == kMaxLegendreIterations || !newton_update(jacobian, r, v, small, det)) return false;
     ++iterations;
     if (small) break;
   }
   // On the branch through v = 0 the map's Jacobian keeps the sign it has there (det 8 det I > 0);
-  // beyond the fold (h |Omega| past about 1) Newton can only find the other branch.
-  const Vec3 iv = b.inertia * v;
-  jacobian = 2.0 * (b.inertia + hat(v) * b.inertia - hat(iv)) - 2.0 * hp * v.transpose();
-  return jacobian.determinant() > 0.0;
+  // beyond the fold (h |Omega| past about 1) Newton can only find the other branch. (det is of
+  // the last iterate but one, a round-off away from the root.)
+  return det > 0.0;
 }
 
 // --- MV-F: (alpha / sin alpha) 2 (I v + v x I v) = h p (1 + |v|^2),
@@ -92,11 +100,12 @@ bool solve_moser_veselov_f(const RigidBlock& b, const Vec3& hp, Vec3& v, int& it
     const Mat3 jacobian = phi * 2.0 * (b.inertia + hat(v) * b.inertia - hat(iv)) + psi * m * grad_t.transpose() -
                           2.0 * hp * v.transpose();
     bool small = false;
-    if (iterations == kMaxLegendreIterations || !newton_update(jacobian, r, v, small)) return false;
+    double det = 0.0;
+    if (iterations == kMaxLegendreIterations || !newton_update(jacobian, r, v, small, det)) return false;
     ++iterations;
     if (small) break;
   }
-  return v.norm() <= 1.0;  // at most a quarter turn per step (2 atan |v|)
+  return v.squaredNorm() <= 1.0;  // at most a quarter turn per step (2 atan |v|)
 }
 
 // --- exponential: I xi = dexp_{-xi}(h p), dexp_{-xi} y = y - a xi x y + b xi x (xi x y) -------
@@ -134,7 +143,8 @@ bool solve_exponential(const RigidBlock& b, const Vec3& hp, Vec3& xi, int& itera
                         bb * (xi.dot(hp) * Mat3::Identity() + xi * hp.transpose() - 2.0 * hp * xi.transpose()) +
                         db * xxy * xi.transpose();
     bool small = false;
-    if (iterations == kMaxLegendreIterations || !newton_update(b.inertia - d_dexp, r, xi, small)) return false;
+    double det = 0.0;
+    if (iterations == kMaxLegendreIterations || !newton_update(b.inertia - d_dexp, r, xi, small, det)) return false;
     ++iterations;
     if (small) break;
   }

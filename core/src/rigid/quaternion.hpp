@@ -62,6 +62,14 @@ inline Vec4 quaternion_cayley(const Vec3& v) {
   return {s, s * v.x(), s * v.y(), s * v.z()};
 }
 
+// R(w)^T x for a unit quaternion w = (s, u): x turned by the conjugate, t = -2 u x x,
+// x + s t - u x t (two cross products, no matrix).
+inline Vec3 rotate_back(const Vec4& w, const Vec3& x) {
+  const Vec3 u(w[1], w[2], w[3]);
+  const Vec3 t = -2.0 * u.cross(x);
+  return x + w[0] * t - u.cross(t);
+}
+
 // q (x) w, renormalised (a product of unit quaternions drifts off the unit sphere by round-off).
 inline Vec4 compose_normalised(const Vec4& q, const Vec4& w) {
   const Vec4 r = quaternion_product(q, w);
