@@ -1,11 +1,15 @@
 #include <nonholo/scenarios/scene_file.hpp>
 
 #include <nonholo/model_builder.hpp>
+#include <nonholo/rigid_body.hpp>
+
+#include <Eigen/Core>
 
 #include <nlohmann/json.hpp>
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -15,6 +19,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 #include <vector>
 
 namespace nonholo::scenarios {
@@ -22,35 +27,55 @@ namespace {
 
 using json = nlohmann::json;
 
+// A body of the file: planar (x, y, theta) or a 3-D rigid body (nonholo/rigid_body.hpp).
 struct Body {
-  double mass, inertia, x, y, heading, vx, vy, turn_rate;
+  bool rigid = false;
+  // planar
+  double mass = 1.0, inertia = 1.0, x = 0.0, y = 0.0, heading = 0.0, vx = 0.0, vy = 0.0, turn_rate = 0.0;
+  // rigid
+  RigidBody shape;                                              // mass, inertia, translation (name unused)
+  Eigen::Vector4d orientation = Eigen::Vector4d(1.0, 0.0, 0.0, 0.0);  // unit quaternion (w, x, y, z)
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();   // body frame
+  std::vector<double> position, velocity;                       // d entries each
+  // Its centre, when it has one that moves (planar: x, y; rigid: d = 2 or 3 entries).
+  std::vector<double> centre() const {
+    if (!rigid) return {x, y};
+    return shape.translation >= 2 ? position : std::vector<double>();
+  }
 };
-struct Knife {
-  int body;
-  double offset;
-  std::size_t index;  // in "constraints", for messages
-};
-struct Hitch {
-  int a, b;
-  double rear, front;
-  std::size_t index;
+// A constraint of the file: one element of elements.hpp (a hitch adds two rows, a rolling
+// ball two or three, a rolling disk three).
+struct Constraint {
+  enum Kind { kKnife, kHitch, kBodyAxis, kSpaceAxis, kBall, kDisk, kRod } kind;
+  int a = 0, b = 0;          // its body; its two bodies for a hitch (rear, front) and a rod
+  double p = 0.0, p2 = 0.0;  // offset; rear, front; radius; length
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  std::size_t index = 0;     // in "constraints", for messages
+  std::string label;         // "knife_edge on body 2", "rod of bodies 0 and 1"
+  bool joins_two() const { return kind == kHitch || kind == kRod; }
 };
 struct Spring {
   int a, b;
   double stiffness, rest;
+  std::size_t index;  // in "couplings"
 };
+// A thrust or torque on a planar body, or a body torque or force on a rigid body:
+// value + amplitude sin(omega t + phase), per component for the latter; or gravity (g in
+// value[0]).
 struct Drive {
-  bool thrust;
+  enum Kind { kThrust, kTorque, kBodyTorque, kBodyForce, kGravity } kind;
   int body;
-  double value, amplitude, omega, phase;
-  double at(double t) const { return value + amplitude * std::sin(omega * t + phase); }
+  Eigen::Vector3d value, amplitude;  // a thrust's or torque's in the first entry
+  double omega, phase;
+  std::size_t index;  // in "forces"
+  double at(double t) const { return value[0] + amplitude[0] * std::sin(omega * t + phase); }
+  Eigen::Vector3d vector_at(double t) const { return value + amplitude * std::sin(omega * t + phase); }
 };
 struct System {
   std::vector<Body> bodies;
-  std::vector<Knife> knives;
-  std::vector<Hitch> hitches;
+  std::vector<Constraint> constraints;
   std::vector<Spring> springs;
-  std::vector<Drive> drives;
+  std::vector<Drive> drives;  // in the file's order
   double dt = 0.01, t_end = 10.0;
   std::string file;  // for messages
 };
@@ -108,6 +133,13 @@ class Reader {
     }
     return x;
   }
+  // A number of an array (or any value) at `path`: finite.
+  double entry(const json& v, const std::string& path) const {
+    if (!v.is_number()) fail(path, std::string("expected a number, got ") + v.type_name());
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) fail(path, "is not finite");
+    return x;
+  }
   std::vector<double> numbers(const json& j, const std::string& where, const char* key, std::size_t n,
                               bool required) const {
     const std::string path = where + "." + key;
@@ -117,15 +149,20 @@ class Reader {
     }
     const json& v = j.at(key);
     if (!v.is_array() || v.size() != n)
-      fail(path, "expected " + std::to_string(n) + " numbers, got " +
-                     (v.is_array() ? std::to_string(v.size()) + " entries" : std::string(v.type_name())));
+      fail(path, "expected " + std::to_string(n) + " numbers, got " + count(v));
     std::vector<double> out;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!v[i].is_number()) fail(path + "[" + std::to_string(i) + "]", std::string("expected a number, got ") + v[i].type_name());
-      out.push_back(v[i].get<double>());
-      if (!std::isfinite(out.back())) fail(path + "[" + std::to_string(i) + "]", "is not finite");
-    }
+    for (std::size_t i = 0; i < n; ++i) out.push_back(entry(v[i], path + "[" + std::to_string(i) + "]"));
     return out;
+  }
+  Eigen::Vector3d vector3(const json& j, const std::string& where, const char* key, bool required,
+                          const Eigen::Vector3d& fallback = Eigen::Vector3d::Zero()) const {
+    if (!j.contains(key) && !required) return fallback;
+    const auto v = numbers(j, where, key, 3, required);
+    return {v[0], v[1], v[2]};
+  }
+  // "3 entries" for an array, its type otherwise.
+  static std::string count(const json& v) {
+    return v.is_array() ? std::to_string(v.size()) + " entries" : std::string(v.type_name());
   }
   int body(const json& j, const std::string& where, const std::string& key, int bodies) const {
     const std::string path = where + "." + key;
@@ -141,8 +178,7 @@ class Reader {
     if (!j.contains("bodies")) fail(where + ".bodies", "missing (two body indices are required)");
     const json& v = j.at("bodies");
     if (!v.is_array() || v.size() != 2)
-      fail(where + ".bodies", "expected two body indices, got " +
-                                  (v.is_array() ? std::to_string(v.size()) + " entries" : std::string(v.type_name())));
+      fail(where + ".bodies", "expected two body indices, got " + count(v));
     const int a = body(v[0], where, "bodies[0]", bodies), b = body(v[1], where, "bodies[1]", bodies);
     if (a == b) fail(where + ".bodies", "a body cannot be joined to itself");
     return {a, b};
@@ -195,7 +231,7 @@ void check_depth(const std::string& text, const std::string& name) {
     } else if (c == '[' || c == '{') {
       if (++depth > kMaxSceneDepth)
         fail_at(name, text, i, "arrays and objects nested deeper than " + std::to_string(kMaxSceneDepth) +
-                                   " levels (a scene file needs 4)");
+                                   " levels (a scene file needs 5)");
     } else if ((c == ']' || c == '}') && depth > 0) {
       --depth;  // an unbalanced one is the parser's syntax error
     }
@@ -324,6 +360,204 @@ std::string read_file(const std::string& path) {
   return text;
 }
 
+// The keys of each kind of body. A key of the other kind is refused with a message that
+// says which kind it belongs to.
+const std::set<std::string> kPlanarKeys{"type", "name", "mass", "inertia", "position", "heading", "velocity",
+                                        "turn_rate"};
+const std::set<std::string> kRigidKeys{"type",        "name",     "mass",             "inertia", "translation",
+                                       "orientation", "position", "angular_velocity", "velocity"};
+
+// Numbers in messages that ask for a value to be typed in: all 17 digits.
+std::string exact(double x) {
+  std::ostringstream os;
+  os.precision(17);
+  os << x;
+  return os.str();
+}
+
+void body_keys(const Reader& r, const json& b, const std::string& where, bool rigid) {
+  const auto& other = rigid ? kPlanarKeys : kRigidKeys;
+  for (auto it = b.begin(); it != b.end(); ++it) {
+    const std::string& k = it.key();
+    if ((rigid ? kRigidKeys : kPlanarKeys).count(k) || !other.count(k)) continue;
+    if (rigid)
+      r.fail(where, "key '" + k + "' belongs to planar bodies; this body is rigid (\"type\": \"rigid\")" +
+                        (k == "heading"     ? ": give its \"orientation\" instead"
+                         : k == "turn_rate" ? ": give its \"angular_velocity\" instead"
+                                            : ""));
+    r.fail(where, "key '" + k + "' belongs to rigid bodies; this body is planar (add \"type\": \"rigid\" for a 3-D "
+                                "rigid body)");
+  }
+  r.keys(b, where, rigid ? kRigidKeys : kPlanarKeys);
+}
+
+// 0, 2 or 3 (default 0).
+int read_translation(const Reader& r, const json& b, const std::string& where) {
+  if (!b.contains("translation")) return 0;
+  const std::string path = where + ".translation";
+  const json& t = b.at("translation");
+  if (!t.is_number()) r.fail(path, std::string("expected 0, 2 or 3, got ") + t.type_name());
+  const double d = t.get<double>();
+  if (d == 0.0 || d == 2.0 || d == 3.0) return static_cast<int>(d);
+  std::ostringstream os;
+  os << "must be 0 (a fixed point), 2 (the centre moves in a horizontal plane) or 3 (free), got " << d;
+  r.fail(path, os.str());
+}
+
+// 3 principal moments (a diagonal inertia) or a 3x3 array; the builder checks the rest.
+Eigen::Matrix3d read_inertia(const Reader& r, const json& b, const std::string& where) {
+  const std::string path = where + ".inertia";
+  const std::string expected = "expected 3 principal moments [I1, I2, I3] or a 3x3 array [[...], [...], [...]]";
+  if (!b.contains("inertia")) r.fail(path, "missing (" + expected.substr(9) + " is required)");
+  const json& v = b.at("inertia");
+  if (!v.is_array() || v.size() != 3) r.fail(path, expected + ", got " + Reader::count(v));
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+  if (!v[0].is_array()) {
+    for (std::size_t i = 0; i < 3; ++i) {
+      const int k = static_cast<int>(i);
+      inertia(k, k) = r.entry(v[i], path + "[" + std::to_string(i) + "]");
+    }
+    return inertia;
+  }
+  for (std::size_t i = 0; i < 3; ++i) {
+    const std::string row = path + "[" + std::to_string(i) + "]";
+    if (!v[i].is_array() || v[i].size() != 3)
+      r.fail(row, "expected a row of 3 numbers (the inertia is a 3x3 array), got " + Reader::count(v[i]));
+    for (std::size_t j = 0; j < 3; ++j)
+      inertia(static_cast<int>(i), static_cast<int>(j)) = r.entry(v[i][j], row + "[" + std::to_string(j) + "]");
+  }
+  return inertia;
+}
+
+// A unit quaternion [w, x, y, z] (normalised here) or {"axis": [3], "angle": radians}; default
+// the identity.
+Eigen::Vector4d read_orientation(const Reader& r, const json& b, const std::string& where) {
+  if (!b.contains("orientation")) return {1.0, 0.0, 0.0, 0.0};
+  const std::string path = where + ".orientation";
+  const json& o = b.at("orientation");
+  if (o.is_array()) {
+    const auto v = r.numbers(b, where, "orientation", 4, true);
+    const Eigen::Vector4d q(v[0], v[1], v[2], v[3]);
+    const double norm = q.norm();  // an overflow (inf) is refused too
+    if (!(std::abs(norm - 1.0) <= 1e-6)) {
+      std::ostringstream os;
+      os << "the quaternion [w, x, y, z] has norm " << exact(norm)
+         << "; give a unit quaternion (norm within 1e-6 of 1) or {\"axis\": [x, y, z], \"angle\": radians}";
+      r.fail(path, os.str());
+    }
+    return q / norm;
+  }
+  if (!o.is_object())
+    r.fail(path, std::string("expected a unit quaternion [w, x, y, z] or {\"axis\": [x, y, z], \"angle\": radians}, got ") +
+                     o.type_name());
+  r.keys(o, path, {"axis", "angle"});
+  const Eigen::Vector3d axis = r.vector3(o, path, "axis", true);
+  const double angle = r.number(o, path, "angle");
+  // Scaled to its largest entry first: an axis of tiny or huge entries is still a direction.
+  const double scale = axis.cwiseAbs().maxCoeff();
+  if (!(scale > 0.0)) r.fail(path + ".axis", "must not be zero");
+  try {
+    return axis_angle_quaternion(axis / scale, angle);
+  } catch (const std::invalid_argument& e) {
+    r.fail(path, e.what());
+  }
+}
+
+Body read_rigid_body(const Reader& r, const json& b, const std::string& where) {
+  Body body;
+  body.rigid = true;
+  const int d = read_translation(r, b, where);
+  body.shape.translation = d;
+  if (d > 0 || b.contains("mass")) body.shape.mass = r.positive(b, where, "mass");
+  body.shape.inertia = read_inertia(r, b, where);
+  body.orientation = read_orientation(r, b, where);
+  body.angular_velocity = r.vector3(b, where, "angular_velocity", false);
+  for (const char* key : {"position", "velocity"})
+    if (d == 0 && b.contains(key))
+      r.fail(where + "." + key, "the body's centre is fixed (translation 0); give \"translation\": 2 or 3 to move it");
+  if (d > 0) {
+    body.position = r.numbers(b, where, "position", static_cast<std::size_t>(d), true);
+    body.velocity = r.numbers(b, where, "velocity", static_cast<std::size_t>(d), false);
+  }
+  return body;
+}
+
+// The holonomic constraints must hold at the start: hitches closed, rods at their length,
+// balls and disks on the ground. Elements the builder refuses anyway (a hitch on a rigid body,
+// a rod between centres of different dimensions, a disk whose centre cannot rise) are left to
+// it.
+void check_closed(const Reader& r, const System& s) {
+  for (const Constraint& c : s.constraints) {
+    const std::string where = "constraints[" + std::to_string(c.index) + "]";
+    const Body& a = s.bodies[static_cast<std::size_t>(c.a)];
+    std::ostringstream os;
+    switch (c.kind) {
+      case Constraint::kHitch: {
+        const Body& b = s.bodies[static_cast<std::size_t>(c.b)];
+        if (a.rigid || b.rigid) break;
+        const double gx = a.x - c.p * std::cos(a.heading) - b.x - c.p2 * std::cos(b.heading);
+        const double gy = a.y - c.p * std::sin(a.heading) - b.y - c.p2 * std::sin(b.heading);
+        const double gap = std::hypot(gx, gy);
+        if (!(gap <= 1e-9 * (1.0 + std::abs(a.x) + std::abs(a.y)))) {  // NaN (overflow) is open too
+          os << "the hitch is open at the start: its two points are " << gap << " apart (place body " << c.b
+             << " so that they meet)";
+          r.fail(where, os.str());
+        }
+        break;
+      }
+      case Constraint::kRod: {
+        const std::vector<double> ca = a.centre(), cb = s.bodies[static_cast<std::size_t>(c.b)].centre();
+        if (ca.empty() || ca.size() != cb.size()) break;
+        double scale = 1.0 + c.p;
+        for (std::size_t i = 0; i < ca.size(); ++i) scale = std::max({scale, std::abs(ca[i]), std::abs(cb[i])});
+        const double dx = ca[0] - cb[0], dy = ca[1] - cb[1];
+        const double distance = ca.size() == 3 ? std::hypot(dx, dy, ca[2] - cb[2]) : std::hypot(dx, dy);
+        if (!(std::abs(distance - c.p) <= 1e-9 * scale)) {
+          os << "the rod is not at its length at the start: the centres of bodies " << c.a << " and " << c.b << " are "
+             << distance << " apart, the rod is " << c.p << " long (place body " << c.b << " at distance " << c.p
+             << " from body " << c.a << ")";
+          r.fail(where, os.str());
+        }
+        break;
+      }
+      case Constraint::kBall:
+      case Constraint::kDisk: {
+        if (!a.rigid || a.shape.translation != 3) break;
+        const double z = a.position[2];
+        const std::string set = "set bodies[" + std::to_string(c.a) + "].position[2] to ";
+        if (c.kind == Constraint::kBall) {
+          if (!(std::abs(z - c.p) <= 1e-9 * (1.0 + c.p + std::abs(z)))) {
+            os << "the ball is not on the ground at the start: its centre is at height " << z << ", its radius is " << c.p
+               << " (" << set << exact(c.p) << ")";
+            r.fail(where, os.str());
+          }
+          break;
+        }
+        // Its centre is r |w| above the contact point, w = e3 - n_z n, n = R e3 its axis
+        // (|w| = sqrt(1 - n_z^2), computed as the element does).
+        const Eigen::Vector3d axis = quaternion_matrix(a.orientation).col(2);
+        const double tilt = (Eigen::Vector3d::UnitZ() - axis.z() * axis).norm();
+        if (!(tilt > 1e-8)) {
+          os << "the disk lies flat at the start (its axis R e3 is vertical, sin of its tilt " << tilt
+             << "): it has no contact point; tilt it (bodies[" << c.a << "].orientation)";
+          r.fail(where, os.str());
+        }
+        const double height = c.p * tilt;
+        if (!(std::abs(z - height) <= 1e-9 * (1.0 + c.p + std::abs(z)))) {
+          os << "the disk is not on the ground at the start: its centre is at height " << z << ", and a disk of radius "
+             << c.p << " tilted as it is (axis R e3 = (" << axis.x() << ", " << axis.y() << ", " << axis.z()
+             << ")) touches the ground with its centre at r sqrt(1 - n_z^2) = " << height << " (" << set
+             << exact(height) << ")";
+          r.fail(where, os.str());
+        }
+        break;
+      }
+      default:
+        break;
+    }
+  }
+}
+
 System read_system(const std::string& text, const std::string& path) {
   if (text.size() > kMaxSceneFileBytes)
     throw std::invalid_argument(path + ": the text is " + std::to_string(text.size()) + " bytes; a scene file may be at most " +
@@ -352,13 +586,35 @@ System read_system(const std::string& text, const std::string& path) {
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     const std::string where = "bodies[" + std::to_string(i) + "]";
     const json& b = bodies[i];
-    r.keys(b, where, {"name", "mass", "inertia", "position", "heading", "velocity", "turn_rate"});
+    if (!b.is_object()) r.fail(where, "expected an object, got " + std::string(b.type_name()));
+    bool rigid = false;
+    if (b.contains("type")) {
+      const json& t = b.at("type");
+      if (!t.is_string()) r.fail(where + ".type", std::string("expected \"planar\" or \"rigid\", got ") + t.type_name());
+      const std::string& type = t.get_ref<const std::string&>();
+      if (type != "planar" && type != "rigid")
+        r.fail(where + ".type", "unknown body type '" + type + "' (known: planar, rigid)");
+      rigid = type == "rigid";
+    }
+    body_keys(r, b, where, rigid);
     r.text(b, where, "name");
+    if (rigid) {
+      s.bodies.push_back(read_rigid_body(r, b, where));
+      continue;
+    }
     const double zero = 0.0;
     const auto pos = r.numbers(b, where, "position", 2, true);
     const auto vel = r.numbers(b, where, "velocity", 2, false);
-    s.bodies.push_back({r.positive(b, where, "mass"), r.positive(b, where, "inertia"), pos[0], pos[1],
-                        r.number(b, where, "heading", &zero), vel[0], vel[1], r.number(b, where, "turn_rate", &zero)});
+    Body body;
+    body.mass = r.positive(b, where, "mass");
+    body.inertia = r.positive(b, where, "inertia");
+    body.x = pos[0];
+    body.y = pos[1];
+    body.heading = r.number(b, where, "heading", &zero);
+    body.vx = vel[0];
+    body.vy = vel[1];
+    body.turn_rate = r.number(b, where, "turn_rate", &zero);
+    s.bodies.push_back(body);
   }
   const int n = static_cast<int>(s.bodies.size());
   auto list = [&](const char* key) -> json {
@@ -366,23 +622,51 @@ System read_system(const std::string& text, const std::string& path) {
     if (!root.at(key).is_array()) r.fail(key, std::string("expected an array, got ") + root.at(key).type_name());
     return root.at(key);
   };
+  const auto body_of = [&](const json& c, const std::string& where) {
+    if (!c.contains("body")) r.fail(where + ".body", "missing (a body index is required)");
+    return r.body(c.at("body"), where, "body", n);
+  };
   const json constraints = list("constraints");
   for (std::size_t i = 0; i < constraints.size(); ++i) {
     const std::string where = "constraints[" + std::to_string(i) + "]";
     const json& c = constraints[i];
     const std::string type = r.type(c, where);
+    Constraint k{};
+    k.index = i;
     if (type == "knife_edge") {
       r.keys(c, where, {"type", "body", "offset"});
-      if (!c.contains("body")) r.fail(where + ".body", "missing (a body index is required)");
       const double zero = 0.0;
-      s.knives.push_back({r.body(c.at("body"), where, "body", n), r.number(c, where, "offset", &zero), i});
+      k.kind = Constraint::kKnife;
+      k.a = body_of(c, where);
+      k.p = r.number(c, where, "offset", &zero);
     } else if (type == "hitch") {
       r.keys(c, where, {"type", "bodies", "rear", "front"});
-      const auto [a, b] = r.pair(c, where, n);
-      s.hitches.push_back({a, b, r.number(c, where, "rear"), r.number(c, where, "front"), i});
+      k.kind = Constraint::kHitch;
+      std::tie(k.a, k.b) = r.pair(c, where, n);
+      k.p = r.number(c, where, "rear");
+      k.p2 = r.number(c, where, "front");
+    } else if (type == "body_axis" || type == "space_axis") {
+      r.keys(c, where, {"type", "body", "axis"});
+      k.kind = type == "body_axis" ? Constraint::kBodyAxis : Constraint::kSpaceAxis;
+      k.a = body_of(c, where);
+      k.axis = r.vector3(c, where, "axis", type == "body_axis", Eigen::Vector3d::UnitZ());
+    } else if (type == "rolling_ball" || type == "rolling_disk") {
+      r.keys(c, where, {"type", "body", "radius"});
+      k.kind = type == "rolling_ball" ? Constraint::kBall : Constraint::kDisk;
+      k.a = body_of(c, where);
+      k.p = r.positive(c, where, "radius");
+    } else if (type == "rod") {
+      r.keys(c, where, {"type", "bodies", "length"});
+      k.kind = Constraint::kRod;
+      std::tie(k.a, k.b) = r.pair(c, where, n);
+      k.p = r.positive(c, where, "length");
     } else {
-      r.fail(where + ".type", "unknown constraint type '" + type + "' (known: knife_edge, hitch)");
+      r.fail(where + ".type", "unknown constraint type '" + type +
+                                  "' (known: knife_edge, hitch, body_axis, space_axis, rolling_ball, rolling_disk, rod)");
     }
+    k.label = type + (k.joins_two() ? " of bodies " + std::to_string(k.a) + " and " + std::to_string(k.b)
+                                    : " on body " + std::to_string(k.a));
+    s.constraints.push_back(std::move(k));
   }
   const json couplings = list("couplings");
   for (std::size_t i = 0; i < couplings.size(); ++i) {
@@ -394,79 +678,157 @@ System read_system(const std::string& text, const std::string& path) {
     r.keys(c, where, {"type", "bodies", "stiffness", "rest_angle"});
     const auto [a, b] = r.pair(c, where, n);
     const double zero = 0.0;
-    s.springs.push_back({a, b, r.positive(c, where, "stiffness"), r.number(c, where, "rest_angle", &zero)});
+    s.springs.push_back({a, b, r.positive(c, where, "stiffness"), r.number(c, where, "rest_angle", &zero), i});
   }
   const json forces = list("forces");
+  std::size_t gravity = forces.size();  // the index of the gravity entry, if any
   for (std::size_t i = 0; i < forces.size(); ++i) {
     const std::string where = "forces[" + std::to_string(i) + "]";
     const json& f = forces[i];
     const std::string type = r.type(f, where);
-    if (type != "thrust" && type != "torque")
-      r.fail(where + ".type", "unknown force type '" + type + "' (known: thrust, torque)");
-    r.keys(f, where, {"type", "body", "value", "amplitude", "omega", "phase"});
-    if (!f.contains("body")) r.fail(where + ".body", "missing (a body index is required)");
     const double zero = 0.0;
-    s.drives.push_back({type == "thrust", r.body(f.at("body"), where, "body", n), r.number(f, where, "value", &zero),
-                        r.number(f, where, "amplitude", &zero), r.number(f, where, "omega", &zero),
-                        r.number(f, where, "phase", &zero)});
-  }
-  // Hitches must be closed at the start.
-  for (const Hitch& h : s.hitches) {
-    const Body &a = s.bodies[static_cast<std::size_t>(h.a)], &b = s.bodies[static_cast<std::size_t>(h.b)];
-    const double gx = a.x - h.rear * std::cos(a.heading) - b.x - h.front * std::cos(b.heading);
-    const double gy = a.y - h.rear * std::sin(a.heading) - b.y - h.front * std::sin(b.heading);
-    const double gap = std::hypot(gx, gy);
-    if (!(gap <= 1e-9 * (1.0 + std::abs(a.x) + std::abs(a.y)))) {  // NaN (overflow) is open too
-      std::ostringstream os;
-      os << "the hitch is open at the start: its two points are " << gap
-         << " apart (place body " << h.b << " so that they meet)";
-      r.fail("constraints[" + std::to_string(h.index) + "]", os.str());
+    if (type == "gravity") {
+      r.keys(f, where, {"type", "g"});
+      if (gravity < forces.size())
+        r.fail(where, "gravity is given twice (first in forces[" + std::to_string(gravity) + "])");
+      gravity = i;
+      const double g = 9.81;
+      Drive d{Drive::kGravity, -1, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0, 0.0, i};
+      d.value[0] = r.number(f, where, "g", &g);
+      s.drives.push_back(d);
+      continue;
     }
+    const bool scalar = type == "thrust" || type == "torque";
+    if (!scalar && type != "body_torque" && type != "body_force")
+      r.fail(where + ".type",
+             "unknown force type '" + type + "' (known: thrust, torque, gravity, body_torque, body_force)");
+    r.keys(f, where, {"type", "body", "value", "amplitude", "omega", "phase"});
+    Drive d{type == "thrust"        ? Drive::kThrust
+            : type == "torque"      ? Drive::kTorque
+            : type == "body_torque" ? Drive::kBodyTorque
+                                    : Drive::kBodyForce,
+            body_of(f, where), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0, 0.0, i};
+    if (scalar) {
+      d.value[0] = r.number(f, where, "value", &zero);
+      d.amplitude[0] = r.number(f, where, "amplitude", &zero);
+    } else {
+      d.value = r.vector3(f, where, "value", false);
+      d.amplitude = r.vector3(f, where, "amplitude", false);
+    }
+    d.omega = r.number(f, where, "omega", &zero);
+    d.phase = r.number(f, where, "phase", &zero);
+    s.drives.push_back(d);
   }
+  if (gravity < forces.size() &&
+      std::none_of(s.bodies.begin(), s.bodies.end(), [](const Body& b) { return b.rigid && b.shape.translation == 3; }))
+    r.fail("forces[" + std::to_string(gravity) + "]",
+           "gravity acts on rigid bodies that move freely in 3-D (\"translation\": 3), and the file has none");
+  check_closed(r, s);
   return s;
 }
 
 SceneSetup build_system(const System& s) {
   const int n = static_cast<int>(s.bodies.size());
   ModelBuilder b;
-  for (int i = 0; i < n; ++i) {
-    const std::string k = std::to_string(i);
+  // The builder's own checks, prefixed with the file and the element's path.
+  const auto in = [&s](const std::string& where, const auto& add) {
     try {
-      b.add_planar_body({"x" + k, "y" + k, "theta" + k}, s.bodies[static_cast<std::size_t>(i)].mass,
-                        s.bodies[static_cast<std::size_t>(i)].inertia);
-    } catch (const std::invalid_argument& e) {  // say, an ill-conditioned mass block
-      throw std::invalid_argument(s.file + ": bodies[" + k + "]: " + e.what());
+      add();
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(shown(s.file + ": " + where + ": " + e.what()));
     }
-  }
-  // Each row is labelled with its element of the file, for the messages of the set-up and
-  // of failed steps ("pivot of row 7 of C (constraints[3] (knife_edge on body 2)) ...").
-  const auto label = [](std::size_t index, const std::string& what) {
-    return "constraints[" + std::to_string(index) + "] (" + what + ")";
   };
-  // Local elements (nonholo/elements.hpp), their rows body by body (the knife edges of body
-  // b, then the hitches from b to a later body) whatever the file's order: a chain written
-  // in any order is streamed by the fused step (DESIGN.md section 7).
-  std::vector<std::vector<const Knife*>> knives_of(static_cast<std::size_t>(n));
-  std::vector<std::vector<const Hitch*>> hitches_of(static_cast<std::size_t>(n));
-  for (const Knife& k : s.knives) knives_of[static_cast<std::size_t>(k.body)].push_back(&k);
-  for (const Hitch& h : s.hitches) hitches_of[static_cast<std::size_t>(std::min(h.a, h.b))].push_back(&h);
-  for (int body = 0; body < n; ++body) {
-    for (const Knife* k : knives_of[static_cast<std::size_t>(body)])
-      b.add_knife_edge({k->body, k->offset}, label(k->index, "knife_edge on body " + std::to_string(k->body)));
-    for (const Hitch* h : hitches_of[static_cast<std::size_t>(body)])
-      b.add_hitch({h->a, h->b, h->rear, h->front},
-                  label(h->index, "hitch of bodies " + std::to_string(h->a) + " and " + std::to_string(h->b)));
-  }
-  for (const Spring& sp : s.springs) b.add_torsional_spring({sp.a, sp.b, sp.stiffness, sp.rest});
-  for (const Drive& d : s.drives) {
-    const TimeFunction u = [d](double t) { return d.at(t); };
-    b.add_thrust(d.thrust ? Thrust{d.body, u, nullptr} : Thrust{d.body, nullptr, u});
-  }
-  SceneSetup setup{std::move(b).build(), 0.0, Vector::Zero(3 * n), Vector::Zero(3 * n)};
   for (int i = 0; i < n; ++i) {
     const Body& body = s.bodies[static_cast<std::size_t>(i)];
-    setup.q0.segment<3>(3 * i) << body.x, body.y, body.heading;
-    setup.v0.segment<3>(3 * i) << body.vx, body.vy, body.turn_rate;
+    const std::string k = std::to_string(i);
+    if (!body.rigid) {
+      in("bodies[" + k + "]", [&] { b.add_planar_body({"x" + k, "y" + k, "theta" + k}, body.mass, body.inertia); });
+      continue;
+    }
+    // Coordinates qw<i>, ..., z<i> by the body's index (as x<i> for a planar body); a name in
+    // the file is only a comment.
+    try {
+      b.add_rigid_body(body.shape);
+    } catch (const std::invalid_argument& e) {
+      // The inertia alone refused (not symmetric, not positive definite, ill-conditioned), or
+      // only with the mass (their ratio)?
+      RigidBody alone;
+      alone.inertia = body.shape.inertia;
+      bool inertia = false;
+      try {
+        ModelBuilder().add_rigid_body(alone);
+      } catch (const std::invalid_argument&) {
+        inertia = true;
+      }
+      throw std::invalid_argument(shown(s.file + ": bodies[" + k + "]" + (inertia ? ".inertia" : "") + ": " + e.what()));
+    }
+  }
+  // Local elements (nonholo/elements.hpp), their rows body by body (the one-body constraints of
+  // body b, then those joining b to a later body) whatever the file's order: a chain written
+  // in any order is streamed by the fused step (DESIGN.md section 7). Each row is labelled with
+  // its element of the file, for the messages of the set-up and of failed steps ("pivot of row
+  // 7 of C (constraints[3] (knife_edge on body 2)) ...").
+  std::vector<std::vector<const Constraint*>> of_body(static_cast<std::size_t>(n)), joining(static_cast<std::size_t>(n));
+  for (const Constraint& c : s.constraints)
+    (c.joins_two() ? joining[static_cast<std::size_t>(std::min(c.a, c.b))] : of_body[static_cast<std::size_t>(c.a)])
+        .push_back(&c);
+  const auto add = [&](const Constraint& c) {
+    const std::string where = "constraints[" + std::to_string(c.index) + "]";
+    const std::string label = where + " (" + c.label + ")";
+    in(where, [&] {
+      switch (c.kind) {
+        case Constraint::kKnife: b.add_knife_edge({c.a, c.p}, label); break;
+        case Constraint::kHitch: b.add_hitch({c.a, c.b, c.p, c.p2}, label); break;
+        case Constraint::kBodyAxis: b.add_body_axis_constraint({c.a, c.axis}, label); break;
+        case Constraint::kSpaceAxis: b.add_space_axis_constraint({c.a, c.axis}, label); break;
+        case Constraint::kBall: b.add_rolling_ball({c.a, c.p}, label); break;
+        case Constraint::kDisk: b.add_rolling_disk({c.a, c.p}, label); break;
+        case Constraint::kRod: b.add_rod({c.a, c.b, c.p}, label); break;
+      }
+    });
+  };
+  for (int body = 0; body < n; ++body) {
+    for (const Constraint* c : of_body[static_cast<std::size_t>(body)]) add(*c);
+    for (const Constraint* c : joining[static_cast<std::size_t>(body)]) add(*c);
+  }
+  for (const Spring& sp : s.springs)
+    in("couplings[" + std::to_string(sp.index) + "]", [&] { b.add_torsional_spring({sp.a, sp.b, sp.stiffness, sp.rest}); });
+  for (const Drive& d : s.drives) {
+    in("forces[" + std::to_string(d.index) + "]", [&] {
+      const TimeFunction u = [d](double t) { return d.at(t); };
+      const TimeVector v = [d](double t) { return d.vector_at(t); };
+      switch (d.kind) {
+        case Drive::kThrust: b.add_thrust({d.body, u, nullptr}); break;
+        case Drive::kTorque: b.add_thrust({d.body, nullptr, u}); break;
+        case Drive::kBodyTorque: b.add_body_torque({d.body, v}); break;
+        case Drive::kBodyForce: b.add_body_force({d.body, v}); break;
+        case Drive::kGravity: b.add_gravity(d.value[0]); break;
+      }
+    });
+  }
+  Model model = [&] {
+    try {
+      return std::move(b).build();
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(shown(s.file + ": " + e.what()));
+    }
+  }();
+  const int nq = model.num_configuration(), nv = model.num_velocities();
+  SceneSetup setup{std::move(model), 0.0, Vector::Zero(nq), Vector::Zero(nv)};
+  for (int i = 0; i < n; ++i) {
+    const Body& body = s.bodies[static_cast<std::size_t>(i)];
+    const auto& layout = setup.model.body(i);
+    if (!body.rigid) {
+      setup.q0.segment<3>(layout.q_offset) << body.x, body.y, body.heading;
+      setup.v0.segment<3>(layout.offset) << body.vx, body.vy, body.turn_rate;
+      continue;
+    }
+    setup.q0.segment<4>(layout.q_offset) = body.orientation;
+    setup.v0.segment<3>(layout.offset) = body.angular_velocity;
+    for (std::size_t j = 0; j < body.position.size(); ++j) {
+      setup.q0[layout.q_offset + 4 + static_cast<int>(j)] = body.position[j];
+      setup.v0[layout.offset + 3 + static_cast<int>(j)] = body.velocity[j];
+    }
   }
   return setup;
 }
