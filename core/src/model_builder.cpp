@@ -450,7 +450,10 @@ void ModelBuilder::add_thrust(Thrust thrust) {
 
 namespace {
 void check_axis(const char* element, const Eigen::Vector3d& axis) {
-  if (!std::isfinite(axis.x()) || !std::isfinite(axis.y()) || !std::isfinite(axis.z()) || !(axis.norm() > 0.0)) {
+  // Any finite nonzero axis (its length does not matter: the largest entry, not a norm that
+  // could overflow or underflow).
+  if (!std::isfinite(axis.x()) || !std::isfinite(axis.y()) || !std::isfinite(axis.z()) ||
+      !(axis.cwiseAbs().maxCoeff() > 0.0)) {
     std::ostringstream os;
     os << element << ": axis (" << axis.transpose() << ") must be finite and nonzero";
     fail(os.str());
@@ -475,7 +478,7 @@ int ModelBuilder::add_body_axis_constraint(const BodyAxisConstraint& c, std::str
   const Body& b = rigid_body(c.body, "body-axis constraint");
   check_axis("body-axis constraint", c.axis);
   auto& set = elements();
-  set.body_axes.push_back(c);
+  set.body_axes.push_back({c.body, c.axis / c.axis.stableNorm()});  // a unit axis: the same constraint, C scaled
   set.rows.push_back({detail::ElementRow::BodyAxis, static_cast<int>(set.body_axes.size()) - 1});
   const int columns[3] = {b.offset, b.offset + 1, b.offset + 2};
   return add_row(columns, 3, std::move(label));
@@ -485,7 +488,7 @@ int ModelBuilder::add_space_axis_constraint(const SpaceAxisConstraint& c, std::s
   const Body& b = rigid_body(c.body, "space-axis constraint");
   check_axis("space-axis constraint", c.axis);
   auto& set = elements();
-  set.space_axes.push_back(c);
+  set.space_axes.push_back({c.body, c.axis / c.axis.stableNorm()});
   set.rows.push_back({detail::ElementRow::SpaceAxis, static_cast<int>(set.space_axes.size()) - 1});
   const int columns[3] = {b.offset, b.offset + 1, b.offset + 2};
   return add_row(columns, 3, std::move(label));

@@ -53,14 +53,14 @@ using TimeVector = std::function<Eigen::Vector3d(double t)>;
 // <Omega, a> = 0 with a fixed in the body (the Suslov problem): one row on Omega, bias 0.
 struct BodyAxisConstraint {
   int body = 0;
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // body frame; any nonzero vector
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // body frame; any finite nonzero vector (normalised)
 };
 
 // <Omega, R^T e> = 0 with e fixed in space (the Veselova problem, e = e3: no spin about the
 // vertical): one row gamma^T = (R^T e)^T on Omega, bias 0.
 struct SpaceAxisConstraint {
   int body = 0;
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // space frame; any nonzero vector
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // space frame; any finite nonzero vector (normalised)
 };
 
 // A ball of radius r with its centre of mass at its geometric centre (the Chaplygin ball)

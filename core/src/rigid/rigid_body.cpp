@@ -10,7 +10,7 @@
 namespace nonholo {
 
 Eigen::Vector4d axis_angle_quaternion(const Eigen::Vector3d& axis, double angle) {
-  const double norm = axis.norm();
+  const double norm = axis.stableNorm();  // no overflow or underflow for extreme lengths
   if (!(norm > 0.0) || !std::isfinite(norm) || !std::isfinite(angle)) {
     std::ostringstream os;
     os << "axis_angle_quaternion: axis (" << axis.transpose() << ") and angle " << angle
