@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "support/scenes.hpp"
 #include "support/expect_error.hpp"
 
 namespace nonholo {
@@ -85,12 +86,7 @@ TEST(Structure, MalformedPatternsAreRefused) {
                "col_ptr must hold size + 1 = 4 offsets from 0 to nnz = 3");
 }
 
-scenarios::SceneSetup scene(const std::string& name, const std::vector<std::string>& sets) {
-  const auto& info = scenarios::find_scene(name);
-  auto p = info.defaults();
-  for (const auto& s : sets) p.assign(s);
-  return info.build(p);
-}
+using testing::scene;
 
 TEST(BackendChoice, EachSceneGetsTheBackendItsStructureCallsFor) {
   struct Case {

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "support/scenes.hpp"
 #include "support/expect_error.hpp"
 
 namespace nonholo {
@@ -23,12 +24,7 @@ namespace {
 
 using sparse::Backend;
 
-scenarios::SceneSetup scene(const std::string& name, const std::vector<std::string>& sets) {
-  const auto& info = scenarios::find_scene(name);
-  auto p = info.defaults();
-  for (const auto& s : sets) p.assign(s);
-  return info.build(p);
-}
+using testing::scene;
 
 double relative(const Vector& a, const Vector& b) {
   const double scale = std::max(1.0, b.lpNorm<Eigen::Infinity>());

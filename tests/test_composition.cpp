@@ -13,6 +13,7 @@
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
+#include "support/scenes.hpp"
 #include "support/expect_error.hpp"
 
 #include <gmock/gmock.h>
@@ -25,12 +26,7 @@
 namespace nonholo {
 namespace {
 
-scenarios::SceneSetup scene(const std::string& name, const std::vector<std::string>& sets = {}) {
-  const auto& info = scenarios::find_scene(name);
-  auto p = info.defaults();
-  for (const auto& s : sets) p.assign(s);
-  return info.build(p);
-}
+using testing::scene;
 
 RattleOptions composed(int order, double H, HitchMode hitch = HitchMode::Holonomic, const char* restart = "auto") {
   RattleOptions o;
@@ -41,31 +37,11 @@ RattleOptions composed(int order, double H, HitchMode hitch = HitchMode::Holonom
   return o;
 }
 
+using testing::reference_at;
+
 // q at T after whole composed steps of H.
 Vector configuration_at(const scenarios::SceneSetup& setup, const RattleOptions& o, double T) {
-  Workspace ws(setup.model);
-  State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
-  const long steps = std::lround(T / o.h);
-  for (long k = 0; k < steps; ++k) {
-    const Status status = step(setup.model, ws, s, o);
-    EXPECT_EQ(status, Status::Ok) << ws.message();
-    if (status != Status::Ok) break;
-  }
-  EXPECT_NEAR(s.t, T, 1e-12);
-  return s.q;
-}
-
-// q at T from ARKODE (Verner 6(5)) on the index-reduced equations at a tight tolerance.
-Vector reference_at(const scenarios::SceneSetup& setup, double T, double tol = 1e-14) {
-  Workspace ws(setup.model);
-  const State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
-  Vector v0(s.p.size());
-  setup.model.inverse_mass().multiply(s.p.data(), v0.data());
-  reference::Options ro;
-  ro.tol = tol;
-  reference::Integrator ref(setup.model, reference::Method::ArkodeVerner, ro, setup.t0, setup.q0, v0);
-  EXPECT_EQ(ref.advance_to(setup.t0 + T), Status::Ok) << ref.message();
-  return ref.q();
+  return testing::state_at(setup, o, T).q;
 }
 
 // Error ratio between H and H/2 against `truth`.

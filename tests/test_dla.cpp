@@ -15,15 +15,13 @@
 #include <cmath>
 #include <iostream>
 
+#include "support/scenes.hpp"
 #include "support/expect_error.hpp"
 
 namespace nonholo {
 namespace {
 
-scenarios::SceneSetup scene(const char* name) {
-  const auto& info = scenarios::find_scene(name);
-  return info.build(info.defaults());
-}
+using testing::scene;
 
 // A refused step leaves the state exactly as it was.
 void expect_unchanged(const DlaState& s, const DlaState& before) {

@@ -18,15 +18,13 @@
 #include <iostream>
 #include <vector>
 
+#include "support/scenes.hpp"
 #include "support/expect_error.hpp"
 
 namespace nonholo {
 namespace {
 
-scenarios::SceneSetup scene(const char* name) {
-  const auto& info = scenarios::find_scene(name);
-  return info.build(info.defaults());
-}
+using testing::scene;
 
 // Centre-of-mass configuration (x_C, y_C, theta) every 0.5 time units to T = 10.
 std::vector<Eigen::Vector3d> contact_run(double h) {

@@ -15,6 +15,8 @@
 #include <nonholo/start.hpp>
 
 #include <gmock/gmock.h>
+#include "support/scenes.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -29,12 +31,7 @@ namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 
-scenarios::SceneSetup scene(const std::string& name, const std::vector<std::string>& sets = {}) {
-  const auto& info = scenarios::find_scene(name);
-  auto p = info.defaults();
-  for (const auto& s : sets) p.assign(s);
-  return info.build(p);
-}
+using testing::scene;
 
 RattleOptions options(const char* restart, double h = 0.01, HitchMode hitch = HitchMode::Holonomic) {
   RattleOptions o;

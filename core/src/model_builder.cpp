@@ -736,8 +736,13 @@ ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap ma
   return *this;
 }
 
-ModelBuilder& ModelBuilder::symmetry(const std::string& name, SymmetryGenerator generator) {
+ModelBuilder& ModelBuilder::symmetry(const std::string& name, SymmetryGenerator generator, MomentumMap value) {
   if (!generator) fail("symmetry '" + name + "': the generator is empty");
+  if (value) {
+    momentum_map(name, std::move(value));
+    draft_.momentum_maps_.back().generator = std::move(generator);
+    return *this;
+  }
   // J = <xi(q), p>, xi evaluated into a buffer on the stack (up to kStack velocities: no heap
   // at all), else into one of the calling thread's (allocated at its first use, and when a
   // larger model's map is evaluated on that thread). Restarts read the generator directly.

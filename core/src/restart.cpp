@@ -36,16 +36,22 @@ Status solve_negated(Workspace& ws, Vector& rhs, double* lambda) {
   return ws.solve(rhs.data(), lambda);
 }
 
-// The momentum maps' directions xi_j = dJ_j/dp at q, projected M-orthogonally onto D(q) and
-// M-orthonormalised into ws.map_directions (a direction orthogonal to D, or dependent on the
-// others, becomes 0). For p with M^-1 p in D, J_j(q, p) = xi_j^T p = (P xi_j)^T p. Also
-// records J_j(q, p) and the scale sum_i |xi_ji p_i| in ws.map_values.
+// The momentum maps' directions xi_j = dJ_j/dp at q, in D(q) and M-orthonormalised into
+// ws.map_directions (a direction orthogonal to D, or dependent on the others, becomes 0): a
+// declared symmetry's generator lies in D already (checked at the start); a probed map's
+// direction is projected M-orthogonally onto D(q). For p with M^-1 p in D, J_j(q, p) = xi_j^T p =
+// (P xi_j)^T p. Also records J_j(q, p) and the scale sum_i |xi_ji p_i| in ws.map_values, and
+// where each direction is nonzero in ws.map_span (whole blocks of M): the modified Gram-Schmidt
+// skips pairs that do not overlap, so N local generators (one ball's spin each) cost O(N), not
+// O(N^2) full-length products.
 Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p) {
   // mu(q) is cached (the step that arrived at q left it, or its sin/cos for a fused step).
   if (const Status status = ws.evaluate_one_forms(q); status != Status::Ok) return status;
   const auto& maps = model.momentum_maps();
+  const auto& mass = model.mass();
   const int n = model.num_velocities(), r = static_cast<int>(maps.size());
   Eigen::MatrixXd& xi = ws.map_directions;
+  int* span = ws.map_span.data();
   ws.map_probe.setZero();
   for (int j = 0; j < r; ++j) {
     double scale = 0.0;
@@ -53,6 +59,11 @@ Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, Con
       maps[j].generator(q, xi.col(j));
       for (int i = 0; i < n; ++i) scale += std::abs(xi(i, j) * p[i]);
       ws.map_values[j] = xi.col(j).dot(p);
+      int lo = 0, hi = n;  // its nonzero entries, widened to whole blocks of M
+      while (lo < n && xi(lo, j) == 0.0) ++lo;
+      while (hi > lo && xi(hi - 1, j) == 0.0) --hi;
+      span[2 * j] = lo < hi ? mass.block_offset(mass.block_of(lo)) : 0;
+      span[2 * j + 1] = lo < hi ? mass.block_offset(mass.block_of(hi - 1)) + mass.block_size(mass.block_of(hi - 1)) : 0;
     } else {  // probed: J(q, e_i) - J(q, 0)
       const double offset = maps[j].map(q, ws.map_probe);
       for (int i = 0; i < n; ++i) {
@@ -62,31 +73,49 @@ Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, Con
         scale += std::abs(xi(i, j) * p[i]);
       }
       ws.map_values[j] = maps[j].map(q, p);
+      span[2 * j] = 0;
+      span[2 * j + 1] = n;
     }
     ws.map_values[r + j] = scale + std::abs(ws.map_values[j]);
     if (!std::isfinite(scale) || !std::isfinite(ws.map_values[j]))
       return ws.fail(Status::RestartFailed, "momentum map '%s' is not finite at this state", maps[j].name.c_str());
   }
+  // x^T M y on the entries [lo, hi) (block aligned); ws.scratch_n is clobbered there.
+  auto m_dot = [&](const double* x, const double* y, int lo, int hi) {
+    mass.multiply(x, ws.scratch_n.data(), lo, hi);
+    double s = 0.0;
+    for (int i = lo; i < hi; ++i) s += ws.scratch_n[i] * y[i];
+    return s;
+  };
   for (int j = 0; j < r; ++j) {
     double* col = xi.col(j).data();
-    Status status = Status::Ok;
-    model.mu_times(ws.mu_values.data(), col, ws.rhs.data());
-    if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
-    model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
-    model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
-    model.mass().multiply(col, ws.scratch_n.data());
-    const double before = std::sqrt(std::max(0.0, xi.col(j).dot(ws.scratch_n)));
-    xi.col(j) -= ws.scratch_n2;
-    for (int i = 0; i < j; ++i) {  // modified Gram-Schmidt in the M inner product
-      model.mass().multiply(xi.col(i).data(), ws.scratch_n.data());
-      xi.col(j) -= ws.scratch_n.dot(xi.col(j)) * xi.col(i);
+    int& lo = span[2 * j];
+    int& hi = span[2 * j + 1];
+    const double before = std::sqrt(std::max(0.0, m_dot(col, col, lo, hi)));  // its M-norm as given
+    if (!maps[j].generator) {  // onto D(q): minus M^-1 mu^T C^-1 mu col
+      Status status = Status::Ok;
+      model.mu_times(ws.mu_values.data(), col, ws.rhs.data());
+      if ((status = ws.solve(ws.rhs.data(), ws.scratch_m.data())) != Status::Ok) return status;
+      model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
+      model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
+      xi.col(j) -= ws.scratch_n2;
     }
-    model.mass().multiply(col, ws.scratch_n.data());
-    const double norm = std::sqrt(std::max(0.0, xi.col(j).dot(ws.scratch_n)));
-    if (norm > 1e-10 * before)
-      xi.col(j) /= norm;
-    else
+    for (int i = 0; i < j; ++i) {  // modified Gram-Schmidt in the M inner product, where they overlap
+      const int a = std::max(lo, span[2 * i]), b = std::min(hi, span[2 * i + 1]);
+      if (a >= b) continue;
+      const double d = m_dot(xi.col(i).data(), col, a, b);
+      if (d == 0.0) continue;
+      for (int k = span[2 * i]; k < span[2 * i + 1]; ++k) col[k] -= d * xi(k, i);
+      lo = std::min(lo, span[2 * i]);
+      hi = std::max(hi, span[2 * i + 1]);
+    }
+    const double norm = std::sqrt(std::max(0.0, m_dot(col, col, lo, hi)));
+    if (norm > 1e-10 * before) {
+      for (int k = lo; k < hi; ++k) col[k] /= norm;
+    } else {
       xi.col(j).setZero();
+      lo = hi = 0;
+    }
   }
   return Status::Ok;
 }
@@ -99,7 +128,12 @@ Status split_by_maps(const Model& model, Workspace& ws, ConstVecRef q, ConstVecR
   if (status != Status::Ok) return status;
   const Eigen::MatrixXd& xi = ws.map_directions;
   ws.scratch_n.setZero();
-  for (Eigen::Index j = 0; j < xi.cols(); ++j) ws.scratch_n += xi.col(j).dot(p) * xi.col(j);
+  for (Eigen::Index j = 0; j < xi.cols(); ++j) {
+    const int lo = ws.map_span[2 * j], hi = ws.map_span[2 * j + 1];
+    double d = 0.0;
+    for (int k = lo; k < hi; ++k) d += xi(k, j) * p[k];
+    for (int k = lo; k < hi; ++k) ws.scratch_n[k] += d * xi(k, j);
+  }
   model.mass().multiply(ws.scratch_n.data(), ws.map_rest.data());
   ws.map_rest = p - ws.map_rest;
   return Status::Ok;

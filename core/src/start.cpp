@@ -129,6 +129,14 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
       if (std::isnan(xi[i]))
         complain("symmetry '" + map.name + "': its generator left entry " + std::to_string(i) + " (" + names[i] +
                  ") unset or NaN at q0");
+    const double j_xi = map.map(q0, xi), xi_xi = xi.squaredNorm();
+    if (!(std::abs(j_xi - xi_xi) <= 1e-12 * xi_xi + 1e-300)) {
+      std::ostringstream os;
+      os.precision(17);
+      os << "symmetry '" << map.name << "': its momentum map is not <xi(q), p>: at q0, J(q0, xi) = " << j_xi
+         << " but |xi|^2 = " << xi_xi;
+      complain(os.str());
+    }
     if (model.num_one_forms() == 0) continue;
     const auto& pattern = model.one_form_pattern();
     const double size = xi.lpNorm<Eigen::Infinity>();

@@ -40,6 +40,7 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
     map_lambda0.setZero(m);
     map_lambda1.setZero(m);
     map_values.setZero(2 * maps);  // J_j, then the scale each is checked against
+    map_span.assign(2 * static_cast<std::size_t>(maps), 0);
   }
   if (options.composed_steps) {
     saved_q.setZero(nq);

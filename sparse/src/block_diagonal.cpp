@@ -83,6 +83,23 @@ void BlockDiagonal::multiply(const double* x, double* y) const {
   }
 }
 
+void BlockDiagonal::multiply(const double* x, double* y, int first, int last) const {
+  if (first >= last) return;
+  if (diagonal_) {
+    for (int i = first; i < last; ++i) y[i] = diag_[i] * x[i];
+    return;
+  }
+  for (int b = block_of(first), end = block_of(last - 1); b <= end; ++b) {
+    const int o = block_offset(b), k = block_size(b);
+    const double* a = block_data(b);
+    for (int i = 0; i < k; ++i) {
+      double s = 0.0;
+      for (int j = 0; j < k; ++j) s += a[i * k + j] * x[o + j];
+      y[o + i] = s;
+    }
+  }
+}
+
 BlockDiagonal BlockDiagonal::inverse() const {
   if (diagonal_) {
     // Exact reciprocals: a diagonal metric should cost no round-off. Same layout.

@@ -526,3 +526,17 @@ def test_rotation_reaches_the_run_and_a_bad_one_is_refused():
         nonholo.run("suslov", rotation="cayley")
     b = nonholo.batch("chaplygin_ball", count=4, vary={"Omega3": (1.0, 3.0)}, t_end=1.0, rotation="moser-veselov-f")
     assert b.summary["rotation"] == "moser-veselov-f" and b.summary["failed"] == 0
+
+
+def test_a_three_d_run_writes_velocities_apart_from_coordinates_in_hdf5(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    path = tmp_path / "ball.h5"
+    r = nonholo.run("chaplygin_ball", t_end=0.5, every=5, out=path)
+    with h5py.File(path, "r") as f:
+        names = [n.decode() for n in f["coordinates"][()]]
+        velocities = [n.decode() for n in f["velocities"][()]]
+        assert names == ["qw0", "qx0", "qy0", "qz0", "x0", "y0"]
+        assert velocities == ["wx0", "wy0", "wz0", "vx0", "vy0"]
+        assert f["q"].shape == (r.t.shape[0], 6) and f["p"].shape == (r.t.shape[0], 5)
+        np.testing.assert_array_equal(f["q"][()], r.q)
+        assert f.attrs["rotation"] == "moser-veselov"

@@ -82,10 +82,14 @@ class ModelBuilder {
   ModelBuilder& potential(Potential value, PotentialGradient gradient);
   ModelBuilder& external_force(ExternalForce force);
   ModelBuilder& momentum_map(const std::string& name, MomentumMap map);
-  // A horizontal symmetry by its generator xi(q) (n_v entries, in D(q)): the momentum map
-  // J = <xi(q), p>, named `name`, which the restarts and the composed steps' energy
-  // projection keep exactly by scaling only the part of p~ that no such map sees.
-  ModelBuilder& symmetry(const std::string& name, SymmetryGenerator generator);
+  // A horizontal symmetry by its generator xi(q) (n_v entries, in D(q) for every q; checked at
+  // the start): the momentum map J = <xi(q), p>, named `name`, which the restarts and the
+  // composed steps' energy projection keep exactly by scaling only the part of p~ that no such
+  // map sees. `value`, when given, is J itself computed directly (it must equal <xi(q), p>,
+  // checked at the start): a generator local to one body then costs O(1) to evaluate instead of
+  // n_v (a chain of N balls declares N spins). Without it J is evaluated through xi (no heap up
+  // to 256 velocities).
+  ModelBuilder& symmetry(const std::string& name, SymmetryGenerator generator, MomentumMap value = {});
   // M(q) and dM/dq_i over all coordinates (see Model::has_configuration_metric). The bodies'
   // mass blocks should be M(q0): the set-up code and the diagnostics of q0 use them.
   ModelBuilder& configuration_metric(MetricValue value, MetricDerivative derivative);

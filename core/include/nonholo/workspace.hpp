@@ -10,6 +10,7 @@
 #include <nonholo/status.hpp>
 
 #include <memory>
+#include <vector>
 
 namespace nonholo {
 
@@ -93,6 +94,9 @@ class alignas(128) Workspace {
   Vector lambda_s, lambda_f;
   Eigen::MatrixXd map_directions;
   Vector map_probe, map_rest, map_linear, map_lambda0, map_lambda1, map_values;
+  // Where each direction can be nonzero: entries [map_span[2j], map_span[2j+1]), whole blocks of
+  // M (a ball's spin touches its own body only: disjoint directions cost nothing to orthogonalise).
+  std::vector<int> map_span;
   // What the last successful step found: the parasitic amplitude at its end (NaN when it was
   // not measured) and whether it restarted the multipliers.
   double parasitic = 0.0;

@@ -14,6 +14,12 @@ SymmetryGenerator vertical_spin(BallSlots ball) {
   };
 }
 
+MomentumMap vertical_spin_value(BallSlots ball) {
+  return [ball](ConstVecRef q, ConstVecRef p) {
+    return quaternion_matrix(q.segment<4>(ball.q)).row(2).dot(p.segment<3>(ball.v));
+  };
+}
+
 SymmetryGenerator rolling(std::vector<BallSlots> balls, double radius, int j) {
   return [balls, radius, j](ConstVecRef q, VecRef xi) {
     xi.setZero();

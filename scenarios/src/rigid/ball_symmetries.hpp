@@ -15,8 +15,10 @@ struct BallSlots {
   int q, v;
 };
 
-// Omega = gamma = R^T e3 on this ball, nothing else moves: J = p_Omega . gamma.
+// Omega = gamma = R^T e3 on this ball, nothing else moves: J = p_Omega . gamma (the generator,
+// and J computed directly from the ball's own entries).
 SymmetryGenerator vertical_spin(BallSlots ball);
+MomentumMap vertical_spin_value(BallSlots ball);
 // Every ball turning at unit rate about the horizontal space axis e_j (j = 0: x, 1: y) and
 // rolling with it: Omega_i = R_i^T e_j, xdot_i = r e_j x e3.
 SymmetryGenerator rolling(std::vector<BallSlots> balls, double radius, int j);

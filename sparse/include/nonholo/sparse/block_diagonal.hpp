@@ -33,6 +33,9 @@ class BlockDiagonal {
 
   // y = B x (x and y must not alias).
   void multiply(const double* x, double* y) const;
+  // The same on the entries [first, last) only, which must start and end at block boundaries
+  // (block_offset); the other entries of y are not touched.
+  void multiply(const double* x, double* y, int first, int last) const;
   // The inverse, block by block (blocks must be SPD).
   BlockDiagonal inverse() const;
 
