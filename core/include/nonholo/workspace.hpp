@@ -73,10 +73,10 @@ class alignas(128) Workspace {
   // ... with rigid bodies (empty otherwise): the momentum the drift carries to q_{k+1} (the
   // rigid bodies' p_Omega turned by W^T; p_half itself on flat models), and the gyroscopic
   // term M^-1 g (n_v) with its image mu M^-1 g (m) ...
+  Vector p_arrive, gyroscopic, gyroscopic_m;
   // ... of size nnz(mu), nnz(C) and m (one-form rows). c_values holds C only for the
   // factorisations without an in-place path (it is empty with CHOLMOD and banded);
   // scratch_nnz2 is empty for a model with an analytic bias.
-  Vector p_arrive, gyroscopic, gyroscopic_m;
   Vector mu_values, c_values, rhs, lambda, scratch_m, scratch_nnz, scratch_nnz2;
   // ... and of size num_holonomic() (hitch gaps g(q)).
   Vector gap;
