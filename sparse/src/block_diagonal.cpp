@@ -67,21 +67,7 @@ double BlockDiagonal::entry(int i, int j) const {
   return block_data(b)[(i - o) * block_size(b) + (j - o)];
 }
 
-void BlockDiagonal::multiply(const double* x, double* y) const {
-  if (diagonal_) {
-    for (int i = 0; i < size_; ++i) y[i] = diag_[i] * x[i];
-    return;
-  }
-  for (int b = 0; b < num_blocks(); ++b) {
-    const int o = block_offset(b), k = block_size(b);
-    const double* a = block_data(b);
-    for (int i = 0; i < k; ++i) {
-      double s = 0.0;
-      for (int j = 0; j < k; ++j) s += a[i * k + j] * x[o + j];
-      y[o + i] = s;
-    }
-  }
-}
+void BlockDiagonal::multiply(const double* x, double* y) const { multiply(x, y, 0, size_); }
 
 void BlockDiagonal::multiply(const double* x, double* y, int first, int last) const {
   if (first >= last) return;
