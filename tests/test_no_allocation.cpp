@@ -1,5 +1,6 @@
 // No allocation inside a step, for every backend: the process's malloc is counted while
 // steps (and the per-step diagnostics the command line uses) run.
+#include <nonholo/accuracy.hpp>
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/dla.hpp>
 #include <nonholo/implicit.hpp>
@@ -38,6 +39,34 @@ long allocations_in_steps(const Model& model, Backend backend, const Vector& q0,
   EXPECT_TRUE(std::isfinite(sink));
   EXPECT_NEAR(s.t, 2.01, 1e-9) << "all steps ran";
   return count;
+}
+
+// The accuracy check's shadow steps (sampled step doubling) allocate nothing either, at order 2
+// and 4 (a chain in holonomic mode: the shadow's gap iteration and factorisation run too).
+TEST(NoAllocation, AccuracyWatch) {
+  const auto& info = scenarios::find_scene("sleigh_chain");
+  const auto setup = info.build(info.defaults());
+  for (int order : {2, 4}) {
+    RattleOptions o;
+    o.order = order;
+    Workspace ws(setup.model);
+    State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
+    AccuracyWatch watch(setup.model, {}, o, 8);
+    for (int k = 0; k < 4; ++k) {  // warm-up outside the count: the first samples
+      watch.before_step(s);
+      ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok) << ws.message();
+      watch.after_step(s);
+    }
+    testing::start_counting_allocations();
+    for (int k = 0; k < 100; ++k) {
+      watch.before_step(s);
+      if (step(setup.model, ws, s, o) != Status::Ok) break;
+      watch.after_step(s);
+    }
+    EXPECT_EQ(testing::stop_counting_allocations(), 0) << "order " << order;
+    EXPECT_GT(watch.samples(), 10);
+    EXPECT_TRUE(std::isfinite(watch.estimate()));
+  }
 }
 
 TEST(NoAllocation, CounterSeesAllocations) {

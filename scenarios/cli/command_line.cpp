@@ -20,6 +20,7 @@ namespace nonholo::scenarios {
 
 // The shell's convention for a process ended by SIGINT (128 + 2).
 constexpr int kInterruptedExit = 130;
+constexpr int kInaccurateExit = 3;  // the run finished, its results are written, but not to --accuracy
 namespace {
 
 constexpr const char* kCommands = "run, batch, list, wp";
@@ -79,6 +80,9 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
   cmd->add_flag("--error-estimate", o.config.error_estimate,
                 "integrate a companion at dt/2 (ARKODE: tol/100) in the same run and report "
                 "error_estimate, the max difference in q over the output times (Richardson-scaled)");
+  cmd->add_option("--accuracy", o.config.accuracy,
+                  "reflection: end with status=inaccurate (exit 3, results kept) when the estimated error "
+                  "in q exceeds this fraction of the motion's extent (default 0.1; 0: no check)");
 }
 
 // A batch keeps one row of results per trajectory until it ends: refuse a --count whose rows
@@ -246,7 +250,8 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       if (result.failed > 0) {
         err << "nonholo batch: " << result.failed << " of " << result.trajectories
             << " trajectories failed; first: " << result.first_failure << std::endl;
-        return interrupt_requested() ? kInterruptedExit : 2;
+        if (interrupt_requested()) return kInterruptedExit;
+        return result.failed == result.inaccurate ? kInaccurateExit : 2;
       }
       return 0;
     }
@@ -257,6 +262,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     if (!summary.warning.empty()) err << "nonholo run: warning: " << summary.warning << std::endl;
     if (summary.status != Status::Ok) {
       err << "nonholo run: " << summary.message << std::endl;
+      if (summary.status == Status::Inaccurate) return kInaccurateExit;
       return summary.status == Status::Interrupted ? kInterruptedExit : 2;
     }
   } catch (const std::exception& e) {

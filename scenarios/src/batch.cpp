@@ -199,6 +199,7 @@ BatchResult run_batch(const BatchConfig& config) {
     agg.energy_balance_err_max = worst(agg.energy_balance_err_max, s.energy_balance_err_max);
     if (s.status != Status::Ok) {
       if (result.failed++ == 0) result.first_failure = "trajectory " + std::to_string(i) + ": " + s.message;
+      if (s.status == Status::Inaccurate) ++result.inaccurate;
       agg.status = s.status;
     }
     agg.steps += s.steps;

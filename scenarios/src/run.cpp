@@ -125,6 +125,39 @@ std::string describe(const Diagnostics& d) {
   return os.str();
 }
 
+// The accuracy check samples a pair of steps at least this often (nonholo/accuracy.hpp): about
+// 2/64 = 3 % of a run's cost once the samples agree (a shadow step of 2h and a factorisation).
+constexpr int kAccuracyEvery = 64;
+
+// The accuracy check's verdict on a run that ended ok: status=inaccurate when the estimated error
+// exceeds the tolerance, a fraction of the motion's extent. The advice: the step that would meet
+// the tolerance if the error falls as dt^p, with a factor 2 to spare.
+void judge_accuracy(RunSummary& summary, const RunConfig& config, int order) {
+  if (summary.status != Status::Ok || !(config.accuracy > 0.0) || std::isnan(summary.extent)) return;
+  summary.accuracy = config.accuracy;
+  // Step doubling needs the step of 2 dt to be stable: from half the stability limit on, the
+  // shadow's error is that of an unstable step, not a measure of the run's (a stiff spring chain
+  // at 0.965 of the limit: estimate 11 where the error is 0.003). The stability warning says
+  // what to do there.
+  if (summary.stability_ratio >= 0.5) return;
+  const double allowed = config.accuracy * summary.extent;
+  const double e = summary.error_estimate;
+  if (!(e > allowed) && !std::isnan(e)) return;
+  std::ostringstream os;
+  os.precision(3);
+  summary.status = Status::Inaccurate;
+  os << "the estimated error in q, " << e << ", is " << e / summary.extent << " of the motion's extent "
+     << summary.extent << " (the widest range a coordinate swept), above --accuracy " << config.accuracy << ": ";
+  const double suggested = summary.dt * 0.5 * std::pow(allowed / e, 1.0 / order);
+  if (std::isfinite(suggested) && suggested > 0.0)
+    os << "the step is too large for this motion; use --dt " << suggested << " or smaller (an order-" << order
+       << " method's error falls as dt^" << order << "), or a higher --order";
+  else
+    os << "the step is too large for this motion: reduce --dt";
+  os << ". The results are written; --accuracy 0 turns the check off";
+  summary.message = os.str();
+}
+
 // A parasitic amplitude above this is worth a warning: the mode then holds its square, a
 // visible share of the kinetic energy, and the trajectory is no longer the method's
 // second-order approximation.
@@ -187,6 +220,7 @@ std::vector<SummaryField> RunSummary::fields() const {
   if (rhs_evaluations >= 0) integer("rhs_evals", rhs_evaluations);
   if (factorizations >= 0) integer("factorizations", factorizations);
   if (!std::isnan(error_estimate)) number("error_estimate", error_estimate);
+  if (!std::isnan(extent)) number("extent", extent);
   if (!std::isnan(stability_ratio)) number("stability_ratio", stability_ratio);
   text("backend", backend);
   text("status", to_string(status));
@@ -259,6 +293,10 @@ PreparedRun prepare_run(const RunConfig& config) {
   }
   r.steps = static_cast<long>(std::ceil(ratio * (1.0 - 1e-12)));
   if (config.error_estimate) r.companion = companion_of(r.choice);
+  if (!(config.accuracy >= 0.0) || !std::isfinite(config.accuracy))
+    throw std::invalid_argument("--accuracy " + std::to_string(config.accuracy) +
+                                ": must be a fraction of the motion's extent, at least 0 (0: off)");
+  r.choice.accuracy_every = config.accuracy > 0.0 ? kAccuracyEvery : 0;
   return r;
 }
 
@@ -460,7 +498,17 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     const std::string w = stability.warning();
     if (!w.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + w;
   }
-  if (config.error_estimate) summary.error_estimate = run.companion.scale * difference;
+  if (const AccuracyWatch* w = runner->accuracy()) {
+    summary.error_estimate = w->estimate();
+    summary.extent = w->extent();
+    if (w->failed_samples() > 0 && summary.status == Status::Ok)  // a failed run says it all
+      summary.warning += (summary.warning.empty() ? "" : " ") + std::string("the accuracy check's step of 2 dt failed ") +
+                         std::to_string(w->failed_samples()) + " times (first at " + w->first_failure() +
+                         "): dt is within a factor 2 of what the method can take here; the estimate covers the "
+                         "samples that worked";
+  }
+  if (config.error_estimate) summary.error_estimate = summary.steps > 0 ? run.companion.scale * difference
+                                                                        : std::numeric_limits<double>::quiet_NaN();
   if (csv) csv->close();
   for (FrameSink* s : sinks) s->end();
   summary.t_final = runner->t();
@@ -482,6 +530,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
                        " intervals): --dt, its output interval, probably capped its step; a larger --dt lets "
                        "its error control choose longer steps (fewer evaluations at the same tolerance)";
   if (!companion_failure.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + companion_failure;
+  judge_accuracy(summary, config, reflection ? choice.rattle.order : 2);  // after the warnings it may add to
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   if (final_q) *final_q = runner->q();

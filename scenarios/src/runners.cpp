@@ -22,8 +22,18 @@ class ReflectionRunner final : public Runner {
       : model_(setup.model), ws_(setup.model, {c.backend, c.rattle.order > 2, false}), options_(c.rattle) {
     announce(phase, "starting");
     state_ = start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0);
+    if (c.accuracy_every > 0)
+      watch_ = std::make_unique<AccuracyWatch>(setup.model, WorkspaceOptions{c.backend, c.rattle.order > 2, false},
+                                               c.rattle, c.accuracy_every);
   }
-  Status advance(double) override { return step(model_, ws_, state_, options_); }
+  Status advance(double) override {
+    if (!watch_) return step(model_, ws_, state_, options_);
+    watch_->before_step(state_);
+    const Status status = step(model_, ws_, state_, options_);
+    if (status == Status::Ok) watch_->after_step(state_);
+    return status;
+  }
+  const AccuracyWatch* accuracy() const override { return watch_.get(); }
   double t() const override { return state_.t; }
   ConstVecRef q() const override { return state_.q; }
   // Composed steps restart lambda~ at their end: the post-momentum of a composed step is not
@@ -50,6 +60,7 @@ class ReflectionRunner final : public Runner {
   Workspace ws_;
   RattleOptions options_;
   State state_;
+  std::unique_ptr<AccuracyWatch> watch_;
 };
 
 class DlaRunner final : public Runner {

@@ -1,6 +1,7 @@
 #pragma once
 // The integration methods behind `nonholo run --method`, one interface for the run loop:
 // advance one output interval, then report the configuration and the diagnostics.
+#include <nonholo/accuracy.hpp>
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/reference/integrators.hpp>
@@ -46,6 +47,9 @@ class Runner {
   // The workspace whose factorisation holds C(q()) between steps, when the method has one
   // (the stability watch borrows it instead of building its own).
   virtual Workspace* workspace() { return nullptr; }
+  // The in-run accuracy check (nonholo/accuracy.hpp): the estimated global error in q so far,
+  // NaN for a method without one or with the check off; and the watch itself, when there is one.
+  virtual const AccuracyWatch* accuracy() const { return nullptr; }
 };
 
 struct MethodChoice {
@@ -53,6 +57,8 @@ struct MethodChoice {
   RattleOptions rattle;               // reflection
   reference::Options reference;       // the others
   sparse::Backend backend = sparse::Backend::Auto;
+  // Steps between two samples of the accuracy check (0: off; README "Accuracy check").
+  int accuracy_every = 32;
 };
 
 // The companion trajectory of an error estimate (--error-estimate): the same method at h/2

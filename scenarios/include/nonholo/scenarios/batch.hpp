@@ -50,6 +50,7 @@ struct BatchResult {
   int threads = 0;  // per process
   int ranks = 0;    // processes under MPI (the line then says ranks=); 0: not under MPI
   long failed = 0;
+  long inaccurate = 0;  // of the failed: those that ended with status=inaccurate (their results are whole)
   std::string first_failure;  // "trajectory i: ..." of the first failed one
   std::string line() const;   // the summary line
 

@@ -50,6 +50,9 @@ struct RunConfig {
   // Integrate a companion trajectory at dt/2 (ARKODE: tol/100) in the same run and report
   // error_estimate (README "Error estimate").
   bool error_estimate = false;
+  // The accuracy check (README "Accuracy check"): status=inaccurate when the estimated error in q
+  // exceeds this fraction of the motion's extent (the widest range a coordinate swept). 0: off.
+  double accuracy = 0.1;
   bool project = false;  // reference methods: project onto the constraints after each step
   double tol = 1e-8;     // ARKODE methods: relative and absolute tolerance
 };
@@ -96,10 +99,15 @@ struct RunSummary {
   std::string warning;  // what the user should know about a run that ended ok
   long rhs_evaluations = -1;  // reference methods: evaluations of the equations
   long factorizations = -1;   // numeric factorisations of C (-1: not counted)
-  // With RunConfig::error_estimate: max over the output times of |q - q^|_inf against the
-  // companion trajectory q^, scaled by 2^p / (2^p - 1) for a fixed-step method of order p
-  // (Richardson), so that it estimates the error of q itself. NaN when not computed.
+  // The estimated max error in q (max norm). With RunConfig::error_estimate: max over the output
+  // times of |q - q^|_inf against the companion trajectory q^, scaled by 2^p / (2^p - 1) for a
+  // fixed-step method of order p (Richardson). Otherwise the in-run accuracy check's estimate
+  // (nonholo/accuracy.hpp). NaN when not computed.
   double error_estimate = std::numeric_limits<double>::quiet_NaN();
+  // What error_estimate is judged against (the accuracy check): the widest range any coordinate
+  // swept, and the tolerance (a fraction of it; 0: the check is off). NaN: no check.
+  double extent = std::numeric_limits<double>::quiet_NaN();
+  double accuracy = std::numeric_limits<double>::quiet_NaN();
   // Explicit fixed-step methods with applied forces: the largest dt / stability limit estimated
   // (nonholo/stability.hpp); NaN when not applicable. A run refuses 1 or more, warns from 0.5.
   double stability_ratio = std::numeric_limits<double>::quiet_NaN();

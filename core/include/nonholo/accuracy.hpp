@@ -1,0 +1,96 @@
+#pragma once
+// A cheap estimate of a run's global error in q, on by default in `nonholo run` (README
+// "Accuracy check"). Every `every` steps one pair of steps is sampled: besides the run's two
+// steps of h from x_k, a shadow takes ONE step of 2h from x_k (its own workspace and state, so
+// the run is bit for bit the same with and without the watch). For a method of order p the
+// difference is (2^(p+1) - 2) times the local error of one step of h, to leading order
+// (step doubling). The local errors are accumulated into a global estimate (GlobalError).
+#include <nonholo/model.hpp>
+#include <nonholo/rattle_options.hpp>
+#include <nonholo/state.hpp>
+#include <nonholo/status.hpp>
+#include <nonholo/workspace.hpp>
+
+#include <limits>
+#include <string>
+
+namespace nonholo {
+
+// Local errors to a global one. Each sample says that the steps around it made local errors
+// dq in q and dv in the velocity M^-1 p per step (max norms). Errors in q are carried forward as
+// they are; an error in the velocity drifts the configuration by (t - t_w) dv after it, as in
+// free motion. So at time t
+//   E(t) = sum_w n_w (dq_w + (t - t_w) dv_w)
+// over the stretches w of n_w steps at time t_w, kept as three running sums (no history). It
+// neither damps errors (the sleigh's attracting straight line) nor amplifies them (an unstable
+// chain); README's table says how it tracks the true error.
+class GlobalError {
+ public:
+  void add(double t, double steps, double dq, double dv) {
+    q_sum_ += steps * dq;
+    v_sum_ += steps * dv;
+    tv_sum_ += steps * dv * t;
+  }
+  double at(double t) const { return q_sum_ + t * v_sum_ - tv_sum_; }
+
+ private:
+  double q_sum_ = 0.0, v_sum_ = 0.0, tv_sum_ = 0.0;
+};
+
+// (2^(p+1) - 2): the step-doubling difference of a method of order p in units of its local error.
+double doubling_factor(int order);
+
+// The sampled step doubling of the reflection step (orders 2, 4, 6; a composed step counts as
+// one step of H). Owns a second Workspace and State, sized once: no allocation after the
+// constructor. The shadow never changes the run's state or workspace.
+class AccuracyWatch {
+ public:
+  // every: the most steps between the starts of two samples (even, at least 2). Sampling starts
+  // dense (a pair every 2 steps) and spreads out, doubling the interval up to `every` while
+  // consecutive samples agree within a factor 2, back to dense when they do not (a transient,
+  // the start's): a stretch between two samples is counted with their mean. A sample costs
+  // about one step and one factorisation: about 2/every of the run once spread out.
+  AccuracyWatch(const Model& model, const WorkspaceOptions& workspace, const RattleOptions& options, int every);
+  AccuracyWatch(const Model&& model, const WorkspaceOptions&, const RattleOptions&, int) = delete;
+
+  // Call before each step of the run, with the state it starts from, and after it with the new
+  // state. Never throws; a shadow step that fails is counted (failed_samples(), first_failure()).
+  void before_step(const State& s);
+  void after_step(const State& s);
+
+  // The global error estimate in q at the last step's time (max norm, the units of q); the steps
+  // since the last sample are counted at its rate.
+  double estimate() const;
+
+  // The scale the estimate is judged against: the widest range any coordinate of q has swept
+  // (max - min over the samples' states), the extent of the motion in the units of q.
+  double extent() const;
+  // The largest local error per step seen (q part), and the number of samples taken.
+  double local_max() const { return local_max_; }
+  long samples() const { return samples_; }
+  long failed_samples() const { return failed_; }
+  // "t = 1.23: gap-not-converged: ..." for the first shadow step of 2h that failed.
+  const std::string& first_failure() const { return first_failure_; }
+
+ private:
+  const Model& model_;
+  Workspace ws_;
+  RattleOptions options_;  // h doubled
+  int every_;
+  double factor_;
+  State shadow_;
+  Vector velocity_, difference_;
+  Vector q_min_, q_max_;  // the range each coordinate has swept, at the samples
+  GlobalError error_;
+  long step_ = 0;          // steps of the run seen so far
+  long pending_at_ = -1;   // the run's step count when the shadow's pair ends (-1: none)
+  long next_at_ = 0;       // the step at which the next sample starts
+  long interval_ = 2;      // steps between the starts of two samples, 2 ... every
+  long last_end_ = -1;     // the step at which the last sample's pair ended (-1: none yet)
+  double last_dq_ = 0.0, last_dv_ = 0.0, last_t_ = 0.0;  // its local errors and time
+  double t_ = 0.0, local_max_ = 0.0;
+  long samples_ = 0, failed_ = 0;
+  std::string first_failure_;
+};
+
+}  // namespace nonholo
