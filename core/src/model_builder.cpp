@@ -9,7 +9,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "builder_scales.hpp"
 #include "element_set.hpp"
+#include "structural_rank.hpp"
 
 namespace nonholo {
 namespace {
@@ -31,6 +33,29 @@ std::string describe_body(int index, const std::vector<std::string>& names) {
 }
 
 [[noreturn]] void fail(const std::string& message) { throw std::invalid_argument(message); }
+
+// Refuses rows dependent by their pattern (structural_rank.hpp), naming the first few rows and
+// columns: the whole list of 10^4 copies of a constraint would bury the message.
+void check_structural_rank(const Model& model, const std::vector<int>& row_ptr, const std::vector<int>& col_idx) {
+  const detail::StructuralDeficiency d =
+      detail::structural_deficiency(model.num_one_forms(), model.mass().size(), row_ptr, col_idx);
+  if (d.empty()) return;
+  constexpr std::size_t kNamed = 4;
+  const auto& names = model.velocity_names();
+  std::ostringstream os;
+  os << "dependent-one-forms: " << d.rows.size() << " one-form rows touch only the " << d.columns.size()
+     << " velocity coordinates ";
+  for (std::size_t i = 0; i < std::min(d.columns.size(), 2 * kNamed); ++i)
+    os << (i ? ", " : "") << names[static_cast<std::size_t>(d.columns[i])];
+  if (d.columns.size() > 2 * kNamed) os << " and " << d.columns.size() - 2 * kNamed << " more";
+  os << ", so at most " << d.columns.size() << " of them can be independent at any configuration and "
+     << d.rows.size() - d.columns.size() << " are redundant: ";
+  for (std::size_t i = 0; i < std::min(d.rows.size(), kNamed); ++i)
+    os << (i ? ", " : "") << model.describe_row(d.rows[i]);
+  if (d.rows.size() > kNamed) os << " and " << d.rows.size() - kNamed << " more";
+  os << "; remove the repeated or redundant constraints";
+  fail(os.str());
+}
 
 }  // namespace
 
@@ -85,13 +110,17 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
     os << who() << ": mass block is not positive definite (smallest eigenvalue " << smallest << ")";
     fail(os.str());
   }
+  if (smallest > 0.0) {
+    detail::check_mass_scale(who() + ": mass block", "smallest eigenvalue", smallest);
+    detail::check_mass_scale(who() + ": mass block", "largest eigenvalue", largest);
+  }
   if (!(smallest * kMaxCondition >= largest)) {
     std::ostringstream os;
     os << who() << ": mass block is too ill-conditioned for double precision: its eigenvalues run from "
        << smallest << " to " << largest;
-    if (smallest > 0.0)
+    if (smallest > 0.0)  // the digits from logarithms: the ratio itself may overflow
       os << ", condition number " << largest / smallest << " (above " << kMaxCondition
-         << "): solves with it would lose about " << std::lround(std::log10(largest / smallest))
+         << "): solves with it would lose about " << std::lround(std::log10(largest) - std::log10(smallest))
          << " of double precision's 16 significant digits";
     else
       os << ", singular within round-off (a condition number of at most " << kMaxCondition << " is needed)";
@@ -217,6 +246,8 @@ int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, doubl
   };
   check("mass m", mass);
   check("moment of inertia I", inertia);
+  detail::check_mass_scale(who(), "mass m", mass);
+  detail::check_mass_scale(who(), "moment of inertia I", inertia);
   const double smallest = std::min(mass, inertia), largest = std::max(mass, inertia);
   if (!(smallest * 1e12 >= largest))  // add_body says why
     return add_body({names.begin(), names.end()}, Eigen::Vector3d(mass, mass, inertia).asDiagonal().toDenseMatrix());
@@ -268,6 +299,9 @@ int ModelBuilder::add_rigid_body(const RigidBody& rb) {
     os << who() << ": inertia is not positive definite (principal moments " << moments.transpose() << ")";
     fail(os.str());
   }
+  if (d > 0) detail::check_mass_scale(who(), "mass m", rb.mass);
+  detail::check_mass_scale(who() + ": inertia", "smallest principal moment", moments.minCoeff());
+  detail::check_mass_scale(who() + ": inertia", "largest principal moment", moments.maxCoeff());
   const double smallest = std::min(moments.minCoeff(), d > 0 ? rb.mass : moments.minCoeff());
   const double largest = std::max(moments.maxCoeff(), d > 0 ? rb.mass : moments.maxCoeff());
   if (!(smallest * 1e12 >= largest)) {
@@ -399,9 +433,24 @@ void check_finite(const char* element, const char* what, double value) {
 }
 }  // namespace
 
+// A length on a planar body whose velocity entries start at o (builder_scales.hpp).
+void ModelBuilder::check_planar_arm(const std::string& who, const char* what, double length, int o) const {
+  const sparse::BlockDiagonal& m = draft_.mass_;
+  detail::check_lever_arm(who, what, length, 1.0 / std::min(m.entry(o, o), m.entry(o + 1, o + 1)),
+                          1.0 / m.entry(o + 2, o + 2));
+}
+
+void ModelBuilder::check_rigid_arm(const std::string& who, int body, double radius) const {
+  // rigid_ is in body order (a chain of a million balls: no linear search per element).
+  const auto r = std::lower_bound(draft_.rigid_.begin(), draft_.rigid_.end(), body,
+                                  [](const RigidBlock& x, int b) { return x.body < b; });
+  detail::check_lever_arm(who, "radius", radius, 1.0 / r->mass, r->inverse_inertia.diagonal().maxCoeff());
+}
+
 int ModelBuilder::add_knife_edge(const KnifeEdge& knife, std::string label) {
   const int o = planar_body(knife.body, "knife edge");
   check_finite("knife edge", "a", knife.a);
+  check_planar_arm("knife edge on body " + std::to_string(knife.body), "offset a", knife.a, o);
   auto& set = elements();
   set.knife_edges.push_back(knife);
   set.rows.push_back({detail::ElementRow::Knife, static_cast<int>(set.knife_edges.size()) - 1});
@@ -414,6 +463,9 @@ int ModelBuilder::add_hitch(const Hitch& hitch, std::string label) {
   if (hitch.rear == hitch.front) fail("hitch: joins body " + std::to_string(hitch.rear) + " to itself");
   check_finite("hitch", "d", hitch.d);
   check_finite("hitch", "f", hitch.f);
+  const std::string bodies = "hitch of bodies " + std::to_string(hitch.rear) + " and " + std::to_string(hitch.front);
+  check_planar_arm(bodies, "rear offset d (on the rear body)", hitch.d, r);
+  check_planar_arm(bodies, "front offset f (on the front body)", hitch.f, f);
   auto& set = elements();
   set.hitches.push_back(hitch);
   const int index = static_cast<int>(set.hitches.size()) - 1;
@@ -500,6 +552,7 @@ int ModelBuilder::add_rolling_ball(const RollingBall& ball, std::string label) {
     fail("rolling ball: body " + std::to_string(ball.body) +
          " has translation 0; a rolling ball's centre moves (translation 2 or 3)");
   check_length("rolling ball", "radius", ball.radius);
+  check_rigid_arm("rolling ball on body " + std::to_string(ball.body), ball.body, ball.radius);
   auto& set = elements();
   set.balls.push_back(ball);
   const int index = static_cast<int>(set.balls.size()) - 1;
@@ -523,6 +576,7 @@ int ModelBuilder::add_rolling_disk(const RollingDisk& disk, std::string label) {
     fail("rolling disk: body " + std::to_string(disk.body) + " has translation " + std::to_string(b.translation) +
          "; a rolling disk's centre rises and falls as it tilts (translation 3)");
   check_length("rolling disk", "radius", disk.radius);
+  check_rigid_arm("rolling disk on body " + std::to_string(disk.body), disk.body, disk.radius);
   auto& set = elements();
   set.disks.push_back(disk);
   const int index = static_cast<int>(set.disks.size()) - 1;
@@ -546,6 +600,8 @@ int ModelBuilder::add_rod(const Rod& rod, std::string label) {
     fail("rod: body " + std::to_string(rod.first) + "'s centre moves in " + std::to_string(d1) + "-D, body " +
          std::to_string(rod.second) + "'s in " + std::to_string(d2) + "-D: a rod joins centres of the same dimension");
   check_length("rod", "length", rod.length);
+  detail::check_rod_length("rod joining bodies " + std::to_string(rod.first) + " and " + std::to_string(rod.second),
+                           rod.length);
   auto& set = elements();
   set.rods.push_back(rod);
   set.rows.push_back({detail::ElementRow::Rod, static_cast<int>(set.rods.size()) - 1});
@@ -821,6 +877,7 @@ Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elem
     if (twice != sorted.end())
       fail(row() + ": column " + std::to_string(*twice) + " (" + names[*twice] + ") appears twice");
   }
+  check_structural_rank(model, ptr, cols);  // before anything the size of C is built
   build_elements(model, std::move(elements));
   if (rows > 0 && !model.values_)
     fail("the model has " + std::to_string(rows) +

@@ -86,17 +86,10 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
 }
 
 // A batch keeps one row of results per trajectory until it ends: refuse a --count whose rows
-// alone exceed the machine's memory (std::bad_alloc otherwise), and more threads than can
-// run (tens of thousands make the OpenMP runtime fail or crash).
+// alone exceed the machine's memory (check_batch_memory: std::bad_alloc otherwise), and more
+// threads than can run (tens of thousands make the OpenMP runtime fail or crash).
 void check_batch_size(const CLI::App* cmd, const BatchConfig& batch) {
-  const double row = sizeof(RunSummary) + 2 * sizeof(std::string) + 2 * sizeof(std::vector<double>);
-  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
-  const double memory = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : 0.0;
-  const double need = row * static_cast<double>(batch.count);
-  if (memory > 0.0 && need > memory)
-    throw std::invalid_argument("--count " + std::to_string(batch.count) + ": the results table would need " +
-                                format(need / 1e9) + " GB (at least " + format(row) +
-                                " bytes per trajectory); this machine has " + format(memory / 1e9) + " GB");
+  check_batch_memory(batch);
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int max_threads = std::max(256, 8 * cores);
   if (cmd->count("--threads") && batch.threads > max_threads)

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 
@@ -106,8 +107,27 @@ BatchResult run_batch(const BatchConfig& config) {
     if (!out) throw std::invalid_argument("cannot open '" + config.out + "' for writing: " + std::strerror(errno));
   }
 
+  check_batch_memory(config);
   const int threads = batch_threads(config.threads);
-  std::vector<Row> rows;  // all of them, on the writing process only
+  std::vector<BatchResult::Trajectory> rows;  // all of them, on the writing process only
+  // Body 0's coordinate names from the set-up trajectory of lowest index: one copy, not one a row.
+  std::mutex names_mutex;
+  long names_from = config.count;
+  std::vector<std::string> names;
+  const auto keep = [&](long i, Row& row) {
+    if (!row.names.empty()) {
+      const std::lock_guard<std::mutex> lock(names_mutex);
+      if (i < names_from) {
+        names_from = i;
+        names = std::move(row.names);
+      }
+    }
+    // The table shows at most three final coordinates: keep no more (a large model's state).
+    const auto kept = std::min<Eigen::Index>(3, row.final_q.size());
+    rows[static_cast<std::size_t>(i)] = {std::move(row.values),
+                                         std::vector<double>(row.final_q.data(), row.final_q.data() + kept),
+                                         std::move(row.summary)};
+  };
   // Over several MPI ranks each sees only its own share: no bar then.
   const bool spread = config.processes && config.processes->size() > 1;
   Progress progress("batch " + prepared.info.name, spread ? 0 : config.count);
@@ -128,7 +148,12 @@ BatchResult run_batch(const BatchConfig& config) {
   std::vector<std::string> errors;
   if (!config.processes) {
     rows.resize(static_cast<std::size_t>(config.count));
-    errors = parallel_for(config.count, threads, [&](long i, int) { integrate_row(i, rows[static_cast<std::size_t>(i)]); });
+    errors = parallel_for(config.count, threads, [&](long i, int) {
+      Row row;  // a failed set-up keeps its drawn values in the table
+      const std::string error = capture_error([&] { integrate_row(i, row); });
+      keep(i, row);
+      if (!error.empty()) throw std::runtime_error(error);
+    });
   } else {
     // Each row comes back as bytes, with what a failed set-up left in it (the drawn values).
     auto items = config.processes->run(config.count, threads, [&](long i, int) {
@@ -146,10 +171,12 @@ BatchResult run_batch(const BatchConfig& config) {
     rows.resize(items.size());
     errors.resize(items.size());
     for (std::size_t i = 0; i < items.size(); ++i) {
-      if (items[i].error.empty()) rows[i] = unpack_row(items[i].data);
-      errors[i] = items[i].error.empty() ? rows[i].error : items[i].error;
-      if (rows[i].values.size() != variations.size())  // the job itself failed: keep the table's columns
-        rows[i].values.assign(variations.size(), std::numeric_limits<double>::quiet_NaN());
+      Row row;
+      if (items[i].error.empty()) row = unpack_row(items[i].data);
+      errors[i] = items[i].error.empty() ? row.error : items[i].error;
+      if (row.values.size() != variations.size())  // the job itself failed: keep the table's columns
+        row.values.assign(variations.size(), std::numeric_limits<double>::quiet_NaN());
+      keep(static_cast<long>(i), row);
       items[i] = EnsembleItem{};  // the bytes are not needed twice
     }
   }
@@ -165,11 +192,10 @@ BatchResult run_batch(const BatchConfig& config) {
   agg.dt = prepared.dt;
   double loop_ns = 0.0;
   for (std::size_t i = 0; i < rows.size(); ++i) {
-    Row& r = rows[i];
+    BatchResult::Trajectory& r = rows[i];
     if (!errors[i].empty()) {
-      r.error = errors[i];
       r.summary.status = Status::InvalidInput;
-      r.summary.message = errors[i];
+      r.summary.message = std::move(errors[i]);
     }
     const RunSummary& s = r.summary;
     if (agg.backend.empty() && !s.backend.empty()) {  // the first trajectory that was set up
@@ -222,12 +248,6 @@ BatchResult run_batch(const BatchConfig& config) {
   // The columns: varied parameters, final time, body 0's coordinates, the errors. The names
   // come from a trajectory that was set up (no model is built again just for them: a large
   // one takes seconds); if none was, from the fixed parameters alone.
-  std::vector<std::string> names;
-  for (const Row& r : rows)
-    if (!r.names.empty()) {
-      names = r.names;
-      break;
-    }
   if (names.empty()) {
     names = {"q0", "q1", "q2"};
     try {
@@ -238,13 +258,8 @@ BatchResult run_batch(const BatchConfig& config) {
   const std::size_t shown = std::min<std::size_t>(3, names.size());
   for (const auto& v : variations) result.varied.push_back(v.name);
   result.shown.assign(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(shown));
-  result.rows.reserve(rows.size());
-  for (Row& r : rows) {
-    std::vector<double> q(shown, std::numeric_limits<double>::quiet_NaN());
-    for (std::size_t c = 0; c < shown && static_cast<Eigen::Index>(c) < r.final_q.size(); ++c)
-      q[c] = r.final_q[static_cast<Eigen::Index>(c)];
-    result.rows.push_back({std::move(r.values), std::move(q), std::move(r.summary)});
-  }
+  for (BatchResult::Trajectory& r : rows) r.final_q.resize(shown, std::numeric_limits<double>::quiet_NaN());
+  result.rows = std::move(rows);
 
   if (out.is_open()) {  // CSV, or HDF5 by the extension (hdf5_output.hpp)
     if (is_hdf5_path(config.out)) {

@@ -133,6 +133,9 @@ class ModelBuilder {
   int planar_body(int body, const char* element) const;  // its first coordinate, or throws
   const Body& rigid_body(int body, const char* element) const;  // the body, or throws
   int centre_dimension(int body, const char* element) const;  // 2 or 3 (a rod's ends), or throws
+  // A length on a body, against its radius of gyration and the range of C (builder_scales.hpp).
+  void check_planar_arm(const std::string& who, const char* what, double length, int offset) const;
+  void check_rigid_arm(const std::string& who, int body, double radius) const;
   Model finish(Model model, std::shared_ptr<detail::ElementSet> elements) const;
   void build_elements(Model& model, std::shared_ptr<detail::ElementSet> set) const;
 };

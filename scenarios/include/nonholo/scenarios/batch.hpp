@@ -66,6 +66,16 @@ struct BatchResult {
   std::vector<Trajectory> rows;
 };
 
+// The bytes a batch keeps per trajectory until it ends, from the real sizes: its table row
+// (BatchResult::Trajectory), its error slot, the heap blocks of its varied values and shown
+// coordinates and, on the writing process of an MPI batch, the row's bytes as received
+// (EnsembleItem). A lower bound: messages and warnings longer than a string's inline buffer
+// add their length. tests/test_batch_memory.cpp measures the peak against it.
+double batch_bytes_per_trajectory(std::size_t varied, bool mpi_writer);
+// Throws std::invalid_argument when count times that exceeds the machine's memory (the batch
+// would die of std::bad_alloc after its trajectories ran).
+void check_batch_memory(const BatchConfig& config);
+
 // Throws std::invalid_argument on bad options (before integrating).
 BatchResult run_batch(const BatchConfig& config);
 
