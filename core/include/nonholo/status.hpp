@@ -25,9 +25,10 @@ enum class Status {
   BlewUp,               // a run's energy error passed 100% or its diagnostics overflowed: not a solution
   Interrupted,          // a run stopped by SIGINT (the command-line tool)
   LegendreNotSolved,    // a rigid body's discrete Legendre transform has no solution (h |Omega| too large)
+  WorkspaceBusy,        // another call is using the workspace (busy_flag.hpp); its message is that call's
 };
 // The last enumerator (for loops over all of them, the Python enum's).
-inline constexpr Status kLastStatus = Status::LegendreNotSolved;
+inline constexpr Status kLastStatus = Status::WorkspaceBusy;
 
 const char* to_string(Status status);
 
