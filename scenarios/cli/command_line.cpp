@@ -165,13 +165,26 @@ void finish_batch_command(const CLI::App* cmd, RunOptions& batch_run, BatchConfi
   batch.run = batch_run.config;
 }
 
-// Parses `nonholo <command> args...` with an app that has that command only; CLI11's own
-// errors (an unknown option, a missing value) become std::invalid_argument with its message.
+// Parses `nonholo <command> args...` with an app that has that command only (the library's and
+// Python's way in); CLI11's own errors (an unknown option, a missing value) become
+// std::invalid_argument with its message. An argument with a NUL byte would be cut there (argv
+// holds C strings), and --help, -h or --version would end the parse with CLI11's internal text:
+// both are refused naming the argument.
 void parse_command(CLI::App& app, const std::string& command, const std::vector<std::string>& args) {
   std::vector<const char*> argv{"nonholo", command.c_str()};
-  for (const auto& a : args) argv.push_back(a.c_str());
+  for (const auto& a : args) {
+    if (a.find('\0') != std::string::npos)
+      throw std::invalid_argument("argument " + std::to_string(argv.size() - 1) + " ('" +
+                                  a.substr(0, a.find('\0')) + "\\0...') contains a NUL byte: arguments end at "
+                                  "the first one, so the rest would be lost; remove it");
+    argv.push_back(a.c_str());
+  }
   try {
     app.parse(static_cast<int>(argv.size()), argv.data());
+  } catch (const CLI::Success&) {  // --help, -h, --help-all, --version
+    throw std::invalid_argument("the arguments ask for the command line's help, which this call does not print: "
+                                "`nonholo " + command + " --help` prints it; in Python, help(nonholo." + command +
+                                ") describes the keywords");
   } catch (const CLI::ParseError& e) {
     throw std::invalid_argument(e.what());
   }

@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "batch_row.hpp"
+#include "interrupt.hpp"
 #include "hdf5_output.hpp"
 #include "random.hpp"
 #include "run_internal.hpp"
@@ -34,6 +35,19 @@ Variation parse_variation(const std::string& text) {
   v.hi = parse_number(text.substr(colon + 1), "--vary " + text);
   if (!(v.lo <= v.hi)) throw std::invalid_argument("--vary " + text + ": LO must not exceed HI");
   return v;
+}
+
+// Ctrl-C (or the caller's stop) before trajectory i began: marked interrupted, not set up.
+bool stop_before_start(const RunConfig& config, const PreparedRun& prepared, RunSummary& summary) {
+  const bool ctrl_c = interrupt_requested();
+  if (!ctrl_c && !(config.stop && config.stop->load(std::memory_order_relaxed))) return false;
+  summary.scene = prepared.info.name;
+  summary.method = config.method;
+  summary.status = Status::Interrupted;
+  summary.message = std::string(ctrl_c ? "interrupted (SIGINT)" : "interrupted by the caller") +
+                    " before this trajectory started";
+  summary.t_final = std::numeric_limits<double>::quiet_NaN();
+  return true;
 }
 
 std::string number(double x) {
@@ -119,6 +133,10 @@ BatchResult run_batch(const BatchConfig& config) {
       const double x = v.lo + (v.hi - v.lo) * random.uniform();
       p.set(v.name, x);
       row.values.push_back(x);
+    }
+    if (stop_before_start(run_config, prepared, row.summary)) {
+      progress.add(1);
+      return;
     }
     // The first trajectory shows the phases of its set-up until the bar replaces them.
     row.summary = integrate_scene(prepared, p, run_config, nullptr, &row.final_q, i == 0 ? &progress : nullptr,
