@@ -157,8 +157,19 @@ void add_batch_command(CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch)
   cmd->add_option("--out", batch.out, "write one row per trajectory to this CSV file");
 }
 
+// The options as CLI11 writes them to a config file (`name=value` lines in declaration order,
+// whatever their order and form on the command line), but --threads.
+std::string canonical_options(const CLI::App* cmd) {
+  std::istringstream lines(cmd->config_to_str(false, false));
+  std::string kept;
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind("threads=", 0) != 0) kept += line + "\n";
+  return kept;
+}
+
 void finish_batch_command(const CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch) {
   finish_run_options(cmd, batch_run);
+  batch.command = canonical_options(cmd);
   if (cmd->count("--threads") && batch.threads < 1)
     throw std::invalid_argument("--threads " + std::to_string(batch.threads) + ": must be at least 1");
   check_batch_size(cmd, batch);

@@ -149,7 +149,7 @@ BatchResult run_batch(const BatchConfig& config) {
     errors = parallel_for(config.count, threads, [&](long i, int) { integrate_row(i, rows[static_cast<std::size_t>(i)]); });
   } else {
     // Each row comes back as bytes, with what a failed set-up left in it (the drawn values).
-    auto items = config.processes->run(config.count, threads, [&](long i, int) {
+    auto items = config.processes->run(config.count, threads, config.command, [&](long i, int) {
       Row row;
       row.error = capture_error([&] { integrate_row(i, row); });
       return pack_row(row);
