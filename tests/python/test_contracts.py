@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import nonholo
+from test_core import chain_builder, chain_start
 
 Q0, V0 = np.array([0.0, -0.5, 0.0]), np.array([1.0, 0.3, -0.5])
 
@@ -111,32 +112,17 @@ def test_a_second_thread_is_refused_while_a_step_runs():
     assert nonholo.step(model, ws, other, nonholo.RattleOptions(0.01)) == nonholo.Status.Ok  # free again
 
 
-def chain(n=8):
-    b = nonholo.ModelBuilder()
-    for i in range(n):
-        b.add_planar_body([f"x{i}", f"y{i}", f"theta{i}"], 1.0, 0.1)
-    for i in range(n):
-        b.add_knife_edge(i, a=0.1)
-        if i + 1 < n:
-            b.add_hitch(i, i + 1, 0.5, 0.5)
-    b.add_thrust(0, force=1.0, torque=0.2)
-    model = b.build()
-    q0 = np.zeros(3 * n)
-    q0[0::3] = -1.0 * np.arange(n)
-    return model, lambda ws: nonholo.start_from_velocity(model, ws, 0.0, q0, np.tile([1.0, 0.0, 0.0], n))
-
-
 def test_two_threads_stepping_one_workspace_never_both_succeed_wrongly():
     # Without the GIL (C++ callbacks only). Before: both threads ran on one workspace and ended
     # about 190 off (or failed with a gap the mixed buffers made). Now a thread either finishes
     # with exactly the serial result or is refused.
-    model, start = chain()
+    model = chain_builder(8).build()
     n, options = 20000, nonholo.RattleOptions(0.01)
     ref_ws = nonholo.Workspace(model)
-    ref = start(ref_ws)
+    ref = chain_start(model, ref_ws)
     assert nonholo.steps(model, ref_ws, ref, options, n) == nonholo.Status.Ok
     ws = nonholo.Workspace(model)
-    states, results = [start(ws), start(ws)], [None, None]
+    states, results = [chain_start(model, ws), chain_start(model, ws)], [None, None]
     threads = [threading.Thread(target=lambda i=i: results.__setitem__(i, nonholo.steps(model, ws, states[i], options, n)))
                for i in range(2)]
     for t in threads:
