@@ -1,7 +1,8 @@
 // `mpirun -n P nonholo batch` against one process (`nonholo batch` in-process): the same CSV
 // byte for byte and the same summary line but for its timings and ranks=P, for 1, 2 and 3
 // ranks; other ranks print nothing; trajectories refused on one rank do not stop the others;
-// a rank that cannot begin does not leave the others waiting; only `batch` is spread.
+// a rank that cannot begin does not leave the others waiting, nor one that fails after they
+// began; ranks must run the same command; only `batch` is spread.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -40,11 +41,11 @@ struct Launch {
   std::string out, err;
 };
 
-// `mpirun -n P --oversubscribe <nonholo> args...` (a hang fails after 120 s). OpenMPI refuses
-// to start as root without the two variables.
-Launch mpirun(int ranks, const std::string& args) {
+// `mpirun -n P --oversubscribe <nonholo> args...` (a hang fails after 120 s with code 124), with
+// `env` (NAME=VALUE ...) set. OpenMPI refuses to start as root without the two variables.
+Launch mpirun(int ranks, const std::string& args, const std::string& env = "") {
   const std::string out = temp("out.txt"), err = temp("err.txt");
-  const std::string cmd = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 timeout 120 " + std::string(NONHOLO_MPIEXEC) + " -n " + std::to_string(ranks) +
+  const std::string cmd = env + " OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 timeout 120 " + std::string(NONHOLO_MPIEXEC) + " -n " + std::to_string(ranks) +
                           " --oversubscribe " + NONHOLO_CLI + " " + args + " > " + out + " 2> " + err;
   const int status = std::system(cmd.c_str());
   Launch r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
@@ -127,6 +128,52 @@ TEST(MpiBatch, ARankThatCannotBeginStopsTheOthers) {
   EXPECT_EQ(m.code, 1) << m.err;
   EXPECT_THAT(m.err, HasSubstr("nonholo batch: missing.json"));
   EXPECT_THAT(m.err, HasSubstr("nonholo batch: rank 1 of 2 could not begin the batch"));
+}
+
+// MPMD: rank 0 runs `batch sleigh --count 4 --t-end 1 <rank0>`, rank 1 `nonholo <rank1>`.
+Launch two_commands(const std::string& rank0, const std::string& rank1) {
+  return mpirun(1, "batch sleigh --count 4 --t-end 1 " + rank0 + " : -n 1 " + std::string(NONHOLO_CLI) + " " + rank1);
+}
+
+TEST(MpiBatch, RanksWithDifferentCommandsStopNamingTheDifference) {
+  // Before: each rank ran its own draws and rank 0 wrote the mixed table, exit 0.
+  const Launch r = two_commands("--vary v0=0:1", "batch sleigh --count 4 --t-end 1 --vary v0=5:6");
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_EQ(r.out, "");
+  const std::string said = "nonholo batch: the ranks were not started with the same batch: rank 0 has "
+                           "vary=\"v0=0:1\", rank 1 has vary=\"v0=5:6\"";
+  EXPECT_THAT(r.err, HasSubstr(said));
+  EXPECT_EQ(r.err.find(said), r.err.rfind(said)) << "said once, by rank 0:\n" << r.err;
+  // The same options in another order and form, and another --threads, are the same batch.
+  const Launch same = two_commands("--vary v0=0:1 --threads 1", "batch sleigh --vary=v0=0:1 --t-end=1 --count 4");
+  EXPECT_EQ(same.code, 0) << same.err;
+  EXPECT_THAT(same.out, HasSubstr("failed=0 ranks=2"));
+}
+
+TEST(MpiBatch, ARankThatReturnsBeforeTheBatchStopsTheOthers) {
+  // Before: rank 1 returned and rank 0 waited for it forever (here: killed after 120 s, code 124).
+  const Launch bad = two_commands("", "batch sleigh --count 4 --t-end 1 --bogus");
+  EXPECT_EQ(bad.code, 1) << bad.err;
+  EXPECT_THAT(bad.err, HasSubstr("The following argument was not expected: --bogus"));
+  EXPECT_THAT(bad.err, HasSubstr("nonholo batch: rank 1 of 2 could not begin the batch"));
+  const Launch other = two_commands("", "run sleigh --t-end 1");
+  EXPECT_EQ(other.code, 1) << other.err;
+  EXPECT_THAT(other.err, HasSubstr("nonholo run: only `batch` is spread over MPI ranks"));
+  EXPECT_THAT(other.err, HasSubstr("nonholo batch: rank 1 of 2 could not begin the batch"));
+  const Launch help = two_commands("", "batch --help");
+  EXPECT_EQ(help.code, 1) << help.err;
+  EXPECT_THAT(help.err, HasSubstr("nonholo batch: rank 1 of 2 could not begin the batch"));
+}
+
+TEST(MpiBatch, AFailureAfterTheRanksAgreedAbortsEveryRank) {
+  // Rank 1 runs out of memory once the ranks have begun (the test hook of mpi_batch.cpp): the
+  // others are in the ensemble's collectives and would wait for it forever.
+  const Launch r = mpirun(3, "batch sleigh --count 6 --t-end 1", "NONHOLO_TEST_FAIL_RANK=1");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.code, 124) << "a hang, killed by timeout";
+  EXPECT_THAT(r.err, HasSubstr("nonholo batch: rank 1 of 3 failed during the batch: std::bad_alloc: stopping "
+                               "every rank (MPI_Abort)"));
+  EXPECT_EQ(r.out, "");
 }
 
 TEST(MpiBatch, OnlyBatchIsSpread) {

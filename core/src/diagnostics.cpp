@@ -12,11 +12,9 @@ double kinetic_energy(const Model& model, ConstVecRef p, VecRef scratch) {
   return 0.5 * p.dot(scratch);
 }
 
-Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h) {
-  return diagnose(model, ws, s, h, ws.rotation());
-}
+namespace {
 
-Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h, RotationLagrangian rotation) {
+Diagnostics diagnose_held(const Model& model, Workspace& ws, const State& s, double h, RotationLagrangian rotation) {
   Diagnostics d;
   const double v_now = model.potential(s.q);
   d.energy = kinetic_energy(model, s.p, ws.scratch_n) + v_now;
@@ -52,13 +50,27 @@ Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h
   return d;
 }
 
+}  // namespace
+
+Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h) {
+  return diagnose(model, ws, s, h, ws.rotation());
+}
+
+Diagnostics diagnose(const Model& model, Workspace& ws, const State& s, double h, RotationLagrangian rotation) {
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "diagnose");
+  return diagnose_held(model, ws, s, h, rotation);
+}
+
 Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& s, double h) {
   return diagnose_step(model, ws, s, h, ws.rotation());
 }
 
 Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& s, double h, RotationLagrangian rotation) {
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "diagnose_step");
   const auto& f = ws.step_diagnostics;
-  if (f.q == nullptr || f.q != s.q.data() || f.steps != s.steps) return diagnose(model, ws, s, h, rotation);
+  if (f.q == nullptr || f.q != s.q.data() || f.steps != s.steps) return diagnose_held(model, ws, s, h, rotation);
   Diagnostics d;
   d.energy = f.energy;
   d.energy_post = f.energy_post;
@@ -69,6 +81,8 @@ Diagnostics diagnose_step(const Model& model, Workspace& ws, const State& s, dou
 
 double external_power(const Model& model, Workspace& ws, const State& s) {
   if (!model.has_external_force()) return 0.0;
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "external_power");
   model.external_force(s.t, s.q, ws.scratch_n);
   model.inverse_mass().multiply(s.p.data(), ws.scratch_n2.data());
   return ws.scratch_n.dot(ws.scratch_n2);

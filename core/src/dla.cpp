@@ -118,6 +118,8 @@ Status dla_step_unguarded(const Model& model, Workspace& ws, DlaState& s, const 
 }  // namespace
 
 Status dla_step(const Model& model, Workspace& ws, DlaState& s, const DlaOptions& o) {
+  const BusyEntry entry(ws.busy_flag());
+  if (!entry.held()) return Status::WorkspaceBusy;
   if (const detail::OptionProblem p = dla_problem(o); p && std::isfinite(o.h) && o.h > 0.0)
     return ws.fail(Status::InvalidOptions, "DlaOptions: %s = %g %s", p.what, p.value, p.rule);
   return detail::guard_callbacks(ws, [&] { return dla_step_unguarded(model, ws, s, o); });

@@ -4,9 +4,11 @@
 #include <limits>
 
 #include "chain_sweep.hpp"
+#include "dynamics_internal.hpp"
 #include "rigid/drift.hpp"
 
 namespace nonholo {
+namespace detail {
 
 Status one_form_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias) {
   const int m = model.num_one_forms();
@@ -52,7 +54,7 @@ Status one_form_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecR
 }
 
 Status constraint_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias) {
-  const Status status = one_form_bias(model, ws, q, qdot, bias);
+  const Status status = detail::one_form_bias(model, ws, q, qdot, bias);
   if (status != Status::Ok || !model.has_rigid_bodies() || model.num_one_forms() == 0) return status;
   // + mu M^-1 g(v); mu(q) is in the workspace (the callers evaluated it at q).
   gyroscopic_acceleration(model, qdot, ws.gyroscopic);
@@ -81,7 +83,7 @@ Status constraint_multiplier(const Model& model, Workspace& ws, double t, ConstV
                              ConstVecRef qdot, VecRef lambda, double min_pivot_ratio) {
   if (model.num_one_forms() == 0) return Status::Ok;
   Status status = ws.factorize_at(q, min_pivot_ratio);
-  if (status == Status::Ok) status = constraint_bias(model, ws, q, qdot, ws.rhs);
+  if (status == Status::Ok) status = detail::constraint_bias(model, ws, q, qdot, ws.rhs);
   if (status != Status::Ok) return status;
   if (model.has_applied_force()) {
     model.applied_force(t, q, ws.applied, ws.scratch_n);
@@ -91,6 +93,27 @@ Status constraint_multiplier(const Model& model, Workspace& ws, double t, ConstV
   }
   ws.rhs = -ws.rhs;
   return ws.solve(ws.rhs.data(), lambda.data());
+}
+
+}  // namespace detail
+
+// The public forms take the workspace for the call.
+Status one_form_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias) {
+  return with_flag(ws.busy_flag(), [&] { return detail::one_form_bias(model, ws, q, qdot, bias); });
+}
+
+Status constraint_bias(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef qdot, VecRef bias) {
+  return with_flag(ws.busy_flag(), [&] { return detail::constraint_bias(model, ws, q, qdot, bias); });
+}
+
+Status project_momentum(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p, VecRef p_out,
+                        double min_pivot_ratio) {
+  return with_flag(ws.busy_flag(), [&] { return detail::project_momentum(model, ws, q, p, p_out, min_pivot_ratio); });
+}
+
+Status constraint_multiplier(const Model& model, Workspace& ws, double t, ConstVecRef q, ConstVecRef qdot,
+                             VecRef lambda, double min_pivot_ratio) {
+  return with_flag(ws.busy_flag(), [&] { return detail::constraint_multiplier(model, ws, t, q, qdot, lambda, min_pivot_ratio); });
 }
 
 }  // namespace nonholo

@@ -130,6 +130,8 @@ double ImplicitWorkspace::kinetic_energy(ConstVecRef q, ConstVecRef p) {
 
 ImplicitState implicit_start(const Model& model, ImplicitWorkspace& ws, double t0, ConstVecRef q0,
                              ConstVecRef v_guess, const ImplicitOptions& o) {
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "implicit_start");
   validate(o);
   const int n = model.num_coordinates(), m = model.num_one_forms();
   if (q0.size() != n || v_guess.size() != n) {
@@ -234,6 +236,8 @@ Status implicit_step_unguarded(const Model& model, ImplicitWorkspace& ws, Implic
 }  // namespace
 
 Status implicit_step(const Model& model, ImplicitWorkspace& ws, ImplicitState& s, const ImplicitOptions& o) {
+  const BusyEntry entry(ws.busy_flag());
+  if (!entry.held()) return Status::WorkspaceBusy;
   if (const detail::OptionProblem p = implicit_problem(o); p && std::isfinite(o.h) && o.h > 0.0)
     return ws.fail(Status::InvalidOptions, "ImplicitOptions: %s = %g %s", p.what, p.value, p.rule);
   return detail::guard_callbacks(ws, [&] { return implicit_step_unguarded(model, ws, s, o); });

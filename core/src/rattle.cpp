@@ -91,7 +91,7 @@ namespace {
 Status gap_failure(const Model& model, Workspace& ws, const State& s, const RattleOptions& o, double h,
                    double worst, int iterations, double tolerance) {
   double mode = 0.0;  // measured at the step's start, where C(q_k) is factorised
-  if (parasitic_amplitude(model, ws, s, std::abs(h), mode, 0.0) == Status::Ok && mode >= 1e-2) {
+  if (detail::parasitic_amplitude(model, ws, s, std::abs(h), mode, 0.0) == Status::Ok && mode >= 1e-2) {
     if (o.restart.mode == RestartMode::Auto)
       return ws.fail(Status::GapNotConverged,
                      "hitch gap %.3g after %d corrections (tolerance %.3g) from t = %.17g: the period-2 "
@@ -397,6 +397,8 @@ Status finish_step(const Model& model, Workspace& ws, State& s, const RattleOpti
 }  // namespace detail
 
 Status step(const Model& model, Workspace& ws, State& s, const RattleOptions& options) {
+  const BusyEntry entry(ws.busy_flag());
+  if (!entry.held()) return Status::WorkspaceBusy;
   const int n = model.num_velocities(), nq = model.num_configuration(), m = model.num_one_forms();
   if (&ws.model() != &model)
     return ws.fail(Status::WorkspaceMismatch, "the workspace was built for another model: build one for this model");

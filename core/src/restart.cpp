@@ -15,6 +15,7 @@
 #include <limits>
 
 #include "callback_guard.hpp"
+#include "dynamics_internal.hpp"
 #include "restart_internal.hpp"
 #include "rigid/drift.hpp"
 
@@ -224,7 +225,7 @@ Status continuous_multiplier_at(const Model& model, Workspace& ws, ConstVecRef q
   Status status = ws.evaluate_one_forms(q);
   if (status != Status::Ok) return status;
   minv.multiply(p.data(), ws.velocity.data());
-  status = constraint_bias(model, ws, q, ws.velocity, ws.rhs);
+  status = detail::constraint_bias(model, ws, q, ws.velocity, ws.rhs);
   if (status != Status::Ok) return status;
   if (model.has_applied_force()) {
     minv.multiply(applied.data(), ws.scratch_n.data());
@@ -288,10 +289,10 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   if (maps) {
     if ((status = split_by_maps(model, ws, q, p)) != Status::Ok) return status;
     // Polarisation of the bias: B(v_J + s v_r) = B(v_J) + s B_1 + s^2 B_2 from s = 0, 1, -1.
-    if ((status = constraint_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
+    if ((status = detail::constraint_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
     if ((status = solve_negated(ws, ws.rhs, ws.map_lambda0.data())) != Status::Ok) return status;
     ws.scratch_n = 2.0 * ws.scratch_n - ws.velocity;  // v_J - v_r
-    if ((status = constraint_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
+    if ((status = detail::constraint_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
     if ((status = solve_negated(ws, ws.rhs, ws.scratch_m.data())) != Status::Ok) return status;
     ws.map_lambda1 = 0.5 * (ws.lambda_s - ws.scratch_m);
     ws.lambda_s = 0.5 * (ws.lambda_s + ws.scratch_m) - ws.map_lambda0;  // lambda_2
@@ -398,18 +399,26 @@ Status multiplier_of_state(const Model& model, Workspace& ws, const State& s, do
 
 }  // namespace
 
-Status parasitic_amplitude(const Model& model, Workspace& ws, const State& s, double h, double& amplitude,
-                           double min_pivot_ratio) {
+Status detail::parasitic_amplitude(const Model& model, Workspace& ws, const State& s, double h, double& amplitude,
+                                   double min_pivot_ratio) {
   amplitude = 0.0;
-  return detail::guard_callbacks(ws, [&] {
+  return guard_callbacks(ws, [&] {
     const Status status = multiplier_of_state(model, ws, s, h, min_pivot_ratio);
     if (status == Status::Ok && model.num_one_forms() > 0)
-      amplitude = detail::parasitic_of(model, ws, s.p, s.lambda, h, false);
+      amplitude = parasitic_of(model, ws, s.p, s.lambda, h, false);
     return status;
   });
 }
 
+Status parasitic_amplitude(const Model& model, Workspace& ws, const State& s, double h, double& amplitude,
+                           double min_pivot_ratio) {
+  return with_flag(ws.busy_flag(),
+                   [&] { return detail::parasitic_amplitude(model, ws, s, h, amplitude, min_pivot_ratio); });
+}
+
 Status restart(const Model& model, Workspace& ws, State& s, const RattleOptions& options) {
+  const BusyEntry entry(ws.busy_flag());
+  if (!entry.held()) return Status::WorkspaceBusy;
   return detail::guard_callbacks(ws, [&] {
     Status status = multiplier_of_state(model, ws, s, options.h, options.min_pivot_ratio);
     if (status != Status::Ok || model.num_one_forms() == 0) return status;

@@ -6,6 +6,7 @@
 // scratch_m, lambda_s, lambda_f and the map_* buffers as scratch.
 #include <nonholo/model.hpp>
 #include <nonholo/restart_options.hpp>
+#include <nonholo/state.hpp>
 #include <nonholo/status.hpp>
 #include <nonholo/workspace.hpp>
 
@@ -14,6 +15,10 @@
 #include <limits>
 
 namespace nonholo::detail {
+
+// parasitic_amplitude (restart.hpp) without taking the workspace: for a step that holds it.
+Status parasitic_amplitude(const Model& model, Workspace& ws, const State& s, double h, double& amplitude,
+                           double min_pivot_ratio);
 
 // ws.lambda_s = lambda_s(q, M^-1 p), the continuous multiplier; leaves ws.velocity = M^-1 p.
 Status continuous_multiplier_at(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p,

@@ -32,6 +32,8 @@ StiffnessEstimate stiffest_frequency(const Model& model, Workspace& ws, double t
                                      double min_pivot_ratio) {
   StiffnessEstimate e;
   if (!model.has_applied_force()) return e;
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "stiffest_frequency");
   const int n = model.num_velocities();
   if (model.num_one_forms() > 0 && ws.factorize_at(q, min_pivot_ratio) != Status::Ok)
     throw std::invalid_argument(std::string("stiffest_frequency: ") + ws.message());

@@ -2,6 +2,7 @@
 
 #include <nonholo/dynamics.hpp>
 
+#include "dynamics_internal.hpp"
 #include "rigid/drift.hpp"
 
 #include <cmath>
@@ -182,6 +183,8 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
 
 State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
                           ConstVecRef v_guess, const StartOptions& options) {
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "start_from_velocity");
   check_time(t0);
   check_vector("q0", q0, model, true);
   check_vector("the velocity guess", v_guess, model, false);
@@ -190,7 +193,7 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
   State s = allocate_state(model, t0, q_unit);
 
   model.mass().multiply(v_guess.data(), s.p.data());
-  check(project_momentum(model, ws, s.q, s.p, s.p, options.min_pivot_ratio), ws,
+  check(detail::project_momentum(model, ws, s.q, s.p, s.p, options.min_pivot_ratio), ws,
         "projecting the velocity onto D(q0)");
 
   // The velocity M^-1 p~_0 is held in s.force until the force itself is computed, and the
@@ -199,7 +202,7 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
   Vector& v = s.force;
   model.inverse_mass().multiply(s.p.data(), v.data());
   if (options.multiplier == InitialMultiplier::Continuous)
-    check(constraint_multiplier(model, ws, t0, s.q, v, s.lambda, options.min_pivot_ratio), ws,
+    check(detail::constraint_multiplier(model, ws, t0, s.q, v, s.lambda, options.min_pivot_ratio), ws,
           "computing the continuous multiplier at q0");
 
   Vector local;
@@ -218,6 +221,8 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
 
 State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstVecRef q0_given,
                             ConstVecRef q1_given, double h, double tolerance, RotationLagrangian rotation) {
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "start_from_two_points");
   check_time(t0);
   check_vector("q0", q0_given, model, true);
   check_vector("q1", q1_given, model, true);

@@ -1,4 +1,8 @@
+#include <nonholo/busy_flag.hpp>
 #include <nonholo/status.hpp>
+
+#include <stdexcept>
+#include <string>
 
 namespace nonholo {
 
@@ -26,8 +30,17 @@ const char* to_string(Status status) {
     case Status::Interrupted: return "interrupted";
     case Status::LegendreNotSolved: return "legendre-not-solved";
     case Status::Inaccurate: return "inaccurate";
+    case Status::WorkspaceBusy: return "workspace-busy";
   }
   return "unknown";
+}
+
+void require_held(const BusyEntry& entry, const char* call) {
+  if (!entry.held())
+    throw std::invalid_argument(std::string("workspace-busy: ") + call +
+                                ": the workspace is in use by another call (another thread, or a model callback "
+                                "inside a step on it): give each thread its own workspace, and do not step or "
+                                "start on a workspace from its own model's callbacks");
 }
 
 }  // namespace nonholo

@@ -77,6 +77,29 @@ class BatchResult(_Result):
             self.summary["scene"], self.summary["trajectories"], self.summary["failed"])
 
 
+def _text(name, value):
+    """A string argument as the command line gets it; name is the Python keyword. The tool's
+    arguments are C strings: a NUL byte would end one there and the rest be lost silently."""
+    text = _os.fspath(value) if name in ("scene", "out") else str(value)
+    if isinstance(text, bytes):
+        text = _os.fsdecode(text)
+    if "\0" in text:
+        raise ValueError("%s: %r contains a NUL byte: the command line's arguments end at the first one, so "
+                         "the rest would be lost; remove it" % (name, text))
+    return text
+
+
+def _scene(scene, what):
+    """The scene argument: a name or a file, never an option the command line would act on."""
+    text = _text("scene", scene)
+    if text.startswith("-"):
+        raise ValueError("scene: %r is not a scene name or file but looks like a command-line option: %s() takes "
+                         "the scene first and options as keywords; help(nonholo.%s) describes them and "
+                         "nonholo.scenes() lists the scenes (a file whose name starts with '-': pass './%s')"
+                         % (text, what, what, text))
+    return text
+
+
 def _number(name, value):
     """A number as the command line reads it, exactly (repr is the shortest round trip)."""
     if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, float, _np.integer, _np.floating)):
@@ -93,49 +116,44 @@ def _integer(name, value):
 
 
 def _assignments(name, values, form):
-    """--set / --vary: a dict {NAME: value} or an iterable of "NAME=..." strings."""
+    """set / vary: a dict {NAME: value} or an iterable of "NAME=..." strings."""
     if values is None:
         return []
     if isinstance(values, dict):
-        return [form(str(k), v) for k, v in values.items()]
+        return [form(_text(name, k), v) for k, v in values.items()]
     if isinstance(values, str):
-        return [values]
-    return [str(v) for v in values]
+        return [_text(name, values)]
+    return [_text(name, v) for v in values]
 
 
-def _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+def _option(args, keyword, flag, value, form):
+    """Appends `flag VALUE` unless value is None; errors name the Python keyword."""
+    if value is not None:
+        args.extend([flag, form(keyword, value)])
+
+
+def _run_arguments(what, scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
                    monitor_every, composition, error_estimate, project, tol, rotation=None):
-    args = [_os.fspath(scene)]
-
-    def option(flag, value, form=_number):
-        if value is not None:
-            args.extend([flag, form(flag, value)])
-
-    option("--dt", dt)
-    option("--t-end", t_end)
-    text = lambda flag, value: str(value)  # noqa: E731
-    option("--method", method, text)
-    option("--order", order, _integer)
-    option("--hitch", hitch, text)
-    option("--backend", backend, text)
-    option("--restart", restart, lambda flag, v: v if isinstance(v, str) else _integer(flag, v))
-    option("--restart-tol", restart_tol)
-    option("--monitor-every", monitor_every, _integer)
-    option("--composition", composition, text)
-    option("--rotation", rotation, text)
-    option("--tol", tol)
+    args = [_scene(scene, what)]
+    for keyword, value, form in (
+            ("dt", dt, _number), ("t_end", t_end, _number), ("method", method, _text), ("order", order, _integer),
+            ("hitch", hitch, _text), ("backend", backend, _text),
+            ("restart", restart, lambda k, v: _text(k, v) if isinstance(v, str) else _integer(k, v)),
+            ("restart_tol", restart_tol, _number), ("monitor_every", monitor_every, _integer),
+            ("composition", composition, _text), ("rotation", rotation, _text), ("tol", tol, _number)):
+        _option(args, keyword, "--" + keyword.replace("_", "-"), value, form)
     if error_estimate:
         args.append("--error-estimate")
     if project:
         args.append("--project")
-    for a in _assignments("--set", set, lambda k, v: "%s=%s" % (k, _number("--set " + k, v))):
+    for a in _assignments("set", set, lambda k, v: "%s=%s" % (k, _number("set " + k, v))):
         args.extend(["--set", a])  # one value per --set, as the tool takes them
     return args
 
 
 def _finish(result, d, check, what):
     interrupt = d.get("interrupt")
-    if interrupt is not None:  # Ctrl-C during the run: raised, with the results so far
+    if interrupt is not None:  # Ctrl-C during the run or batch: raised, with the results so far
         interrupt.result = result
         raise interrupt
     if check and result.status != "ok":
@@ -159,12 +177,10 @@ def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=
     run early with summary["status"] saying why (check=True raises RunError instead). Ctrl-C
     raises KeyboardInterrupt with the frames so far in its .result.
     """
-    args = _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+    args = _run_arguments("run", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
                           monitor_every, composition, error_estimate, project, tol, rotation)
-    if every is not None:
-        args.extend(["--every", _integer("--every", every)])
-    if out is not None:
-        args.extend(["--out", _os.fspath(out)])
+    _option(args, "every", "--every", every, _integer)
+    _option(args, "out", "--out", out, _text)
     d = _core._run(args)
     return _finish(RunResult(d), d, check, "run")
 
@@ -177,20 +193,19 @@ def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None
     trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
     from seed, threads (default: all cores), out (the CLI's CSV, or HDF5 for .h5) and run()'s
     options. Returns a BatchResult; failed trajectories are reported in its columns["status"]
-    and messages (check=True raises RunError if any failed)."""
-    args = _run_arguments(scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+    and messages (check=True raises RunError if any failed). Ctrl-C stops every trajectory at
+    its next step and raises KeyboardInterrupt with the BatchResult in its .result: the finished
+    rows as usual, the others with status "interrupted"."""
+    args = _run_arguments("batch", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
                           monitor_every, composition, error_estimate, project, tol, rotation)
-    args.extend(["--count", _integer("--count", count)])
-    if threads is not None:
-        args.extend(["--threads", _integer("--threads", threads)])
-    if seed is not None:
-        args.extend(["--seed", _integer("--seed", seed)])
-    varies = _assignments("--vary", vary, lambda k, v: "%s=%s:%s" % (
-        k, _number("--vary " + k, v[0]), _number("--vary " + k, v[1])))
+    args.extend(["--count", _integer("count", count)])
+    _option(args, "threads", "--threads", threads, _integer)
+    _option(args, "seed", "--seed", seed, _integer)
+    varies = _assignments("vary", vary, lambda k, v: "%s=%s:%s" % (
+        k, _number("vary " + k, v[0]), _number("vary " + k, v[1])))
     for a in varies:
         args.extend(["--vary", a])
-    if out is not None:
-        args.extend(["--out", _os.fspath(out)])
+    _option(args, "out", "--out", out, _text)
     d = _core._batch(args)
     return _finish(BatchResult(d), d, check, "batch")
 

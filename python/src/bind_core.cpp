@@ -569,7 +569,8 @@ setting q or p resets target_energy.)")
 void bind_stepping(py::module_& m) {
   py::class_<Workspace>(m, "Workspace", R"(Every buffer and the factorisation one thread needs to integrate a model
 (one Workspace per thread; it keeps its model alive). backend: 'auto', 'block-diagonal',
-'dense', 'banded', 'cholmod-natural' or 'cholmod-amd'. message says why the last call failed.)")
+'dense', 'banded', 'cholmod-natural' or 'cholmod-amd'. message says why the last call failed.
+One call at a time: see step().)")
       .def(py::init([](const PyModel& model, const std::string& backend, bool composed_steps, bool dla_steps) {
              WorkspaceOptions o;
              o.backend = sparse::backend_from_string(backend);
@@ -619,7 +620,10 @@ RattleOptions.rotation.)");
   m.def("step", &one_step, py::arg("model"), py::arg("ws"), py::arg("state"), py::arg("options"),
         R"(One step. Returns a Status and never raises for a failed step: the state is then left as it
 was and ws.message says why (a Python callback that raised gives Status.CallbackFailed with its
-exception's text). Ctrl-C in a callback raises KeyboardInterrupt, the state unchanged.)");
+exception's text). Ctrl-C in a callback raises KeyboardInterrupt, the state unchanged. A workspace
+serves one call at a time: a step while another runs on it (another thread, or a callback of
+that step) returns Status.WorkspaceBusy and changes nothing; the starts and diagnose raise
+ValueError('workspace-busy: ...').)");
   m.def("steps", &many_steps, py::arg("model"), py::arg("ws"), py::arg("state"), py::arg("options"), py::arg("n"),
         R"(Up to n steps, stopping at the first that fails (its Status is returned; state.steps counts
 those taken). Runs without the GIL when the model calls no Python (Model.calls_python).)");

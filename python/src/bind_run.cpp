@@ -10,7 +10,9 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
 #include <chrono>
+#include <future>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -115,14 +117,33 @@ py::dict run(const std::vector<std::string>& args) {
   return out;
 }
 
+// Runs the batch on a thread of its own while this one, Python's, lets the signal handlers run
+// every 50 ms: a handler that raises (Ctrl-C: KeyboardInterrupt) sets `stop`, the batch's
+// trajectories end at their next step (status=interrupted) and no more start; the exception is
+// kept in `error` for the caller to raise with the rows. (Handlers run on the main thread only:
+// a batch started from another Python thread is not interrupted.)
+BatchResult run_batch_polling(scenarios::BatchConfig config, std::optional<py::error_already_set>& error) {
+  std::atomic<bool> stop{false};
+  config.run.stop = &stop;
+  std::future<BatchResult> done = std::async(std::launch::async, [&config] { return scenarios::run_batch(config); });
+  for (;;) {
+    {
+      py::gil_scoped_release release;
+      if (done.wait_for(std::chrono::milliseconds(50)) == std::future_status::ready) break;
+    }
+    if (!error && PyErr_CheckSignals() != 0) {
+      error.emplace();  // fetches the exception the handler raised
+      stop.store(true, std::memory_order_relaxed);
+    }
+  }
+  return done.get();  // rethrows what run_batch threw (bad options)
+}
+
 // The batch's table as columns (the CSV's, same names and order) and its summary.
 py::dict batch(const std::vector<std::string>& args) {
   const scenarios::BatchConfig config = scenarios::parse_batch_arguments(args);
-  BatchResult result;
-  {
-    py::gil_scoped_release release;
-    result = scenarios::run_batch(config);
-  }
+  std::optional<py::error_already_set> interrupt;
+  BatchResult result = run_batch_polling(config, interrupt);
   const std::size_t rows = result.rows.size();
   auto column = [&](auto value) {
     std::vector<double> c(rows);
@@ -173,6 +194,7 @@ py::dict batch(const std::vector<std::string>& args) {
   py::list messages;
   for (const auto& r : result.rows) messages.append(r.summary.message);
   out["messages"] = messages;
+  if (interrupt) out["interrupt"] = interrupt->value();  // raised by the caller with the rows
   return out;
 }
 

@@ -152,6 +152,8 @@ Status Integrator::rk4_step(double h) {
 }
 
 Status Integrator::advance_to(double t) {
+  const BusyEntry entry(busy_);
+  if (!entry.held()) return Status::WorkspaceBusy;
   if (!(t > t_)) return fail(Status::InvalidStepSize, "advance_to: the target time must lie after t");
   if (method_ == Method::Rk4) {
     // Whole steps of h; the last one shortened to land on t (not when within round-off).

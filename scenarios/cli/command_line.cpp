@@ -154,21 +154,45 @@ void add_batch_command(CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch)
   cmd->add_option("--out", batch.out, "write one row per trajectory to this CSV file");
 }
 
+// The options as CLI11 writes them to a config file (`name=value` lines in declaration order,
+// whatever their order and form on the command line), but --threads.
+std::string canonical_options(const CLI::App* cmd) {
+  std::istringstream lines(cmd->config_to_str(false, false));
+  std::string kept;
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind("threads=", 0) != 0) kept += line + "\n";
+  return kept;
+}
+
 void finish_batch_command(const CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch) {
   finish_run_options(cmd, batch_run);
+  batch.command = canonical_options(cmd);
   if (cmd->count("--threads") && batch.threads < 1)
     throw std::invalid_argument("--threads " + std::to_string(batch.threads) + ": must be at least 1");
   check_batch_size(cmd, batch);
   batch.run = batch_run.config;
 }
 
-// Parses `nonholo <command> args...` with an app that has that command only; CLI11's own
-// errors (an unknown option, a missing value) become std::invalid_argument with its message.
+// Parses `nonholo <command> args...` with an app that has that command only (the library's and
+// Python's way in); CLI11's own errors (an unknown option, a missing value) become
+// std::invalid_argument with its message. An argument with a NUL byte would be cut there (argv
+// holds C strings), and --help, -h or --version would end the parse with CLI11's internal text:
+// both are refused naming the argument.
 void parse_command(CLI::App& app, const std::string& command, const std::vector<std::string>& args) {
   std::vector<const char*> argv{"nonholo", command.c_str()};
-  for (const auto& a : args) argv.push_back(a.c_str());
+  for (const auto& a : args) {
+    if (a.find('\0') != std::string::npos)
+      throw std::invalid_argument("argument " + std::to_string(argv.size() - 1) + " ('" +
+                                  a.substr(0, a.find('\0')) + "\\0...') contains a NUL byte: arguments end at "
+                                  "the first one, so the rest would be lost; remove it");
+    argv.push_back(a.c_str());
+  }
   try {
     app.parse(static_cast<int>(argv.size()), argv.data());
+  } catch (const CLI::Success&) {  // --help, -h, --help-all, --version
+    throw std::invalid_argument("the arguments ask for the command line's help, which this call does not print: "
+                                "`nonholo " + command + " --help` prints it; in Python, help(nonholo." + command +
+                                ") describes the keywords");
   } catch (const CLI::ParseError& e) {
     throw std::invalid_argument(e.what());
   }

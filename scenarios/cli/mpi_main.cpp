@@ -25,11 +25,15 @@ int mpi_main(int argc, char** argv) {
   int code = 0;
   {
     MpiBatch batch(MPI_COMM_WORLD, options);
+    // A rank that returns without beginning the batch (bad arguments, another command, --help)
+    // still takes part in the ranks' agreement, so that the others do not wait for it.
     if (batch.writes()) {
       code = run_command_line(argc, argv, std::cout, std::cerr, &batch);
+      batch.abandon();
     } else {  // the other ranks print nothing, unless they alone failed
       std::ostringstream out, err;
       code = run_command_line(argc, argv, out, err, &batch);
+      batch.abandon();
       if (batch.failed_alone()) std::cerr << err.str() << std::flush;
     }
   }

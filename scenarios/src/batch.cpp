@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "batch_row.hpp"
+#include "interrupt.hpp"
 #include "hdf5_output.hpp"
 #include "random.hpp"
 #include "run_internal.hpp"
@@ -35,6 +36,19 @@ Variation parse_variation(const std::string& text) {
   v.hi = parse_number(text.substr(colon + 1), "--vary " + text);
   if (!(v.lo <= v.hi)) throw std::invalid_argument("--vary " + text + ": LO must not exceed HI");
   return v;
+}
+
+// Ctrl-C (or the caller's stop) before trajectory i began: marked interrupted, not set up.
+bool stop_before_start(const RunConfig& config, const PreparedRun& prepared, RunSummary& summary) {
+  const bool ctrl_c = interrupt_requested();
+  if (!ctrl_c && !(config.stop && config.stop->load(std::memory_order_relaxed))) return false;
+  summary.scene = prepared.info.name;
+  summary.method = config.method;
+  summary.status = Status::Interrupted;
+  summary.message = std::string(ctrl_c ? "interrupted (SIGINT)" : "interrupted by the caller") +
+                    " before this trajectory started";
+  summary.t_final = std::numeric_limits<double>::quiet_NaN();
+  return true;
 }
 
 std::string number(double x) {
@@ -140,6 +154,10 @@ BatchResult run_batch(const BatchConfig& config) {
       p.set(v.name, x);
       row.values.push_back(x);
     }
+    if (stop_before_start(run_config, prepared, row.summary)) {
+      progress.add(1);
+      return;
+    }
     // The first trajectory shows the phases of its set-up until the bar replaces them.
     row.summary = integrate_scene(prepared, p, run_config, nullptr, &row.final_q, i == 0 ? &progress : nullptr,
                                   &row.names);
@@ -156,7 +174,7 @@ BatchResult run_batch(const BatchConfig& config) {
     });
   } else {
     // Each row comes back as bytes, with what a failed set-up left in it (the drawn values).
-    auto items = config.processes->run(config.count, threads, [&](long i, int) {
+    auto items = config.processes->run(config.count, threads, config.command, [&](long i, int) {
       Row row;
       row.error = capture_error([&] { integrate_row(i, row); });
       return pack_row(row);

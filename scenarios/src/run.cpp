@@ -407,7 +407,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   for (long k = 1; k <= steps && summary.status == Status::Ok; ++k) {
     const double t_before = runner->t();
     const bool ctrl_c = interrupt_requested();
-    if (ctrl_c || (sink && sink->stop_requested())) {
+    if (ctrl_c || (sink && sink->stop_requested()) || (config.stop && config.stop->load(std::memory_order_relaxed))) {
       summary.status = Status::Interrupted;
       summary.message = std::string(ctrl_c ? "interrupted (SIGINT)" : "interrupted by the caller") + " after step " +
                         std::to_string(k - 1) + " at t = " + std::to_string(t_before) +

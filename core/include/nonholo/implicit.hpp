@@ -53,6 +53,8 @@ class ImplicitWorkspace {
   explicit ImplicitWorkspace(const Model&& model) = delete;  // it keeps a pointer to the model
   const Model& model() const { return *model_; }
   const char* message() const { return message_.c_str(); }
+  // Held by implicit_start and implicit_step for the call (busy_flag.hpp).
+  BusyFlag& busy_flag() { return busy_; }
   Status fail(Status status, const char* format, ...) __attribute__((format(printf, 3, 4)));
 
   // The average momentum P* p+ at q (in `average`) and the reflected (P - Q)* p+ (in
@@ -77,6 +79,7 @@ class ImplicitWorkspace {
  private:
   const Model* model_;
   sparse::Message message_;
+  BusyFlag busy_;
 };
 
 // Consistent start from a velocity guess: p~_0 = M(q0) v projected M(q0)-orthogonally onto

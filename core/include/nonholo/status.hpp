@@ -26,9 +26,10 @@ enum class Status {
   Interrupted,          // a run stopped by SIGINT (the command-line tool)
   LegendreNotSolved,    // a rigid body's discrete Legendre transform has no solution (h |Omega| too large)
   Inaccurate,           // a run whose estimated error exceeds its accuracy tolerance (results kept)
+  WorkspaceBusy,        // another call is using the workspace (busy_flag.hpp); its message is that call's
 };
 // The last enumerator (for loops over all of them, the Python enum's).
-inline constexpr Status kLastStatus = Status::Inaccurate;
+inline constexpr Status kLastStatus = Status::WorkspaceBusy;
 
 const char* to_string(Status status);
 

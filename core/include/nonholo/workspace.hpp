@@ -1,7 +1,11 @@
 #pragma once
 // Everything a thread needs to integrate one Model: every buffer sized once here, and its
 // own factorisation of C (for CHOLMOD, its own cholmod_common). One Workspace per thread;
-// the Model must outlive it. The buffers are scratch owned by the integrators.
+// the Model must outlive it. The buffers are scratch owned by the integrators. The entry
+// points take busy_flag() for each call: a second call while one runs (another thread, or a
+// model callback of the running step) is refused with Status::WorkspaceBusy (busy_flag.hpp).
+// The members below are the integrators' own and do not check it.
+#include <nonholo/busy_flag.hpp>
 #include <nonholo/model.hpp>
 #include <nonholo/rattle_options.hpp>
 #include <nonholo/sparse/banded_ldlt.hpp>
@@ -43,6 +47,8 @@ class alignas(128) Workspace {
   const char* backend_name() const;
   // Why the last failed call failed ("" if it did not).
   const char* message() const { return message_.c_str(); }
+  // Held by the call that uses the workspace (busy_flag.hpp).
+  BusyFlag& busy_flag() { return busy_; }
 
   // --- used by the integrators (nonholo/rattle.hpp, start.hpp, dynamics.hpp) --------------
   // Evaluates mu at q into mu_values unless they already hold mu(q) (mu is a pure function
@@ -174,6 +180,7 @@ class alignas(128) Workspace {
   const char* row_note(int row);
   char row_note_[256] = "";
   sparse::Message message_;
+  BusyFlag busy_;
 };
 
 }  // namespace nonholo

@@ -38,6 +38,8 @@ class Integrator {
   // Integrates to exactly t (> t()). RK4 takes whole steps of h and a last shorter one if
   // needed; ARKODE stops at t, so its step never exceeds the interval between two calls. On
   // failure the state is that of the last good step and message() says why.
+  // A call while another runs on this integrator (another thread, a model callback) returns
+  // Status::WorkspaceBusy (busy_flag.hpp).
   Status advance_to(double t);
 
   double t() const { return t_; }
@@ -66,6 +68,7 @@ class Integrator {
   long steps_ = 0, rhs_ = 0;
   std::string message_;
   std::unique_ptr<Arkode> arkode_;
+  BusyFlag busy_;
 };
 
 }  // namespace nonholo::reference

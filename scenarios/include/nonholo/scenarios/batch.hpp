@@ -27,8 +27,10 @@ class BatchProcesses {
   virtual bool writes() const = 0;
   // Collective: job(i, thread) once for each i in [0, count) on some process, `threads`
   // threads on each; every item in index order on the writing process, none elsewhere.
-  // Throws on every process when one of them called abandon() instead.
-  virtual std::vector<EnsembleItem> run(long count, int threads, const EnsembleJob& job) = 0;
+  // Throws on every process when one of them called abandon() instead, or when their
+  // `command`s (BatchConfig::command) differ.
+  virtual std::vector<EnsembleItem> run(long count, int threads, const std::string& command,
+                                        const EnsembleJob& job) = 0;
   // What a process that fails before run() calls instead (a no-op after it), so that the
   // others do not wait for it forever.
   virtual void abandon() = 0;
@@ -42,6 +44,9 @@ struct BatchConfig {
   std::uint64_t seed = 1;
   std::string out;  // the per-trajectory CSV (empty: none)
   BatchProcesses* processes = nullptr;  // MPI ranks (not owned); null: this process alone
+  // The batch's options as parsed, one `name=value` a line (--threads left out: each process may
+  // have its own cores); the processes check that they all run the same.
+  std::string command;
 };
 
 struct BatchResult {

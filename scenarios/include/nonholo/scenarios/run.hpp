@@ -6,6 +6,7 @@
 #include <nonholo/sparse/factorization.hpp>
 #include <nonholo/status.hpp>
 
+#include <atomic>
 #include <iosfwd>
 #include <limits>
 #include <string>
@@ -37,6 +38,9 @@ struct RunConfig {
   double t_end = -1.0;                   // < 0: the scene's default
   std::string csv_path;                  // empty: no CSV
   FrameSink* sink = nullptr;             // also gets the frames (run_scene only, not batch)
+  // Read between steps, set from any thread (not owned): true ends the run with status=interrupted,
+  // as Ctrl-C does; a batch then starts no more trajectories (Python's batch, on Ctrl-C).
+  const std::atomic<bool>* stop = nullptr;
   long every = 1;                        // write every K-th step (and the last)
   sparse::Backend backend = sparse::Backend::Auto;
   HitchMode hitch = HitchMode::Holonomic;
