@@ -72,7 +72,13 @@ double AccuracyWatch::estimate() const {
 }
 
 double AccuracyWatch::extent() const {
-  return samples_ + failed_ > 0 ? (q_max_ - q_min_).maxCoeff() : 0.0;
+  if (!last_) return 0.0;
+  return (q_max_.cwiseMax(last_->q) - q_min_.cwiseMin(last_->q)).maxCoeff();
+}
+
+double AccuracyWatch::largest_coordinate() const {
+  if (!last_) return 0.0;
+  return std::max(q_max_.cwiseMax(last_->q).cwiseAbs().maxCoeff(), q_min_.cwiseMin(last_->q).cwiseAbs().maxCoeff());
 }
 
 namespace {
@@ -90,6 +96,7 @@ bool agree(double a, double b, double floor) {
 void AccuracyWatch::after_step(const State& s) {
   ++step_;
   t_ = s.t;
+  last_ = &s;
   if (pending_at_ != step_) return;
   pending_at_ = -1;
   ++samples_;

@@ -132,7 +132,7 @@ constexpr int kAccuracyEvery = 64;
 // The accuracy check's verdict on a run that ended ok: status=inaccurate when the estimated error
 // exceeds the tolerance, a fraction of the motion's extent. The advice: the step that would meet
 // the tolerance if the error falls as dt^p, with a factor 2 to spare.
-void judge_accuracy(RunSummary& summary, const RunConfig& config, int order) {
+void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, double largest_coordinate) {
   if (summary.status != Status::Ok || !(config.accuracy > 0.0) || std::isnan(summary.extent)) return;
   summary.accuracy = config.accuracy;
   // Step doubling needs the step of 2 dt to be stable: from half the stability limit on, the
@@ -140,7 +140,9 @@ void judge_accuracy(RunSummary& summary, const RunConfig& config, int order) {
   // at 0.965 of the limit: estimate 11 where the error is 0.003). The stability warning says
   // what to do there.
   if (summary.stability_ratio >= 0.5) return;
-  const double allowed = config.accuracy * summary.extent;
+  // A motion with no extent (a body at rest) is judged against round-off instead.
+  const double allowed = std::max(config.accuracy * summary.extent,
+                                  64 * std::numeric_limits<double>::epsilon() * largest_coordinate);
   const double e = summary.error_estimate;
   if (!(e > allowed) && !std::isnan(e)) return;
   std::ostringstream os;
@@ -530,7 +532,8 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
                        " intervals): --dt, its output interval, probably capped its step; a larger --dt lets "
                        "its error control choose longer steps (fewer evaluations at the same tolerance)";
   if (!companion_failure.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + companion_failure;
-  judge_accuracy(summary, config, reflection ? choice.rattle.order : 2);  // after the warnings it may add to
+  judge_accuracy(summary, config, reflection ? choice.rattle.order : 2,
+                 runner->accuracy() ? runner->accuracy()->largest_coordinate() : 0.0);  // after the warnings it may add to
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   if (final_q) *final_q = runner->q();

@@ -63,8 +63,10 @@ class AccuracyWatch {
   double estimate() const;
 
   // The scale the estimate is judged against: the widest range any coordinate of q has swept
-  // (max - min over the samples' states), the extent of the motion in the units of q.
+  // (max - min over the samples' states and the last state), the extent of the motion in the
+  // units of q; and the largest |q_i| seen, for the round-off floor of a motion with no extent.
   double extent() const;
+  double largest_coordinate() const;
   // The largest local error per step seen (q part), and the number of samples taken.
   double local_max() const { return local_max_; }
   long samples() const { return samples_; }
@@ -90,6 +92,7 @@ class AccuracyWatch {
   double last_dq_ = 0.0, last_dv_ = 0.0, last_t_ = 0.0;  // its local errors and time
   double t_ = 0.0, local_max_ = 0.0;
   long samples_ = 0, failed_ = 0;
+  const State* last_ = nullptr;  // the state after_step last saw (the caller's, which outlives the calls)
   std::string first_failure_;
 };
 
