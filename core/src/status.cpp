@@ -25,6 +25,7 @@ const char* to_string(Status status) {
     case Status::BlewUp: return "blew-up";
     case Status::Interrupted: return "interrupted";
     case Status::LegendreNotSolved: return "legendre-not-solved";
+    case Status::PrecisionLoss: return "precision-loss";
   }
   return "unknown";
 }
