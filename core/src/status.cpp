@@ -31,6 +31,7 @@ const char* to_string(Status status) {
     case Status::LegendreNotSolved: return "legendre-not-solved";
     case Status::Inaccurate: return "inaccurate";
     case Status::WorkspaceBusy: return "workspace-busy";
+    case Status::PrecisionLoss: return "precision-loss";
   }
   return "unknown";
 }

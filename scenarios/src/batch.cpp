@@ -252,8 +252,10 @@ BatchResult run_batch(const BatchConfig& config) {
     agg.energy_rel_err_max = worst(agg.energy_rel_err_max, s.energy_rel_err_max);
     agg.energy_post_rel_err_max = worst(agg.energy_post_rel_err_max, s.energy_post_rel_err_max);
     agg.residual_max = worst(agg.residual_max, s.residual_max);
+    agg.residual_rel_max = worst(agg.residual_rel_max, s.residual_rel_max);
     agg.gap_max = worst(agg.gap_max, s.gap_max);
     agg.has_momentum = s.has_momentum;
+    agg.has_error_estimate = s.has_error_estimate;
     agg.momentum_drift_max = worst(agg.momentum_drift_max, s.momentum_drift_max);
     if (s.factorizations >= 0 && agg.factorizations >= 0) agg.factorizations += s.factorizations;
     // NaN (a companion that failed) wins: the estimate is then unknown.

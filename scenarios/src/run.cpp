@@ -5,6 +5,7 @@
 #include "hdf5_output.hpp"
 #include "interrupt.hpp"
 #include "progress.hpp"
+#include "run_checks.hpp"
 #include "run_internal.hpp"
 #include "runners.hpp"
 #include "stability_watch.hpp"
@@ -110,10 +111,6 @@ double balance_error(double energy, double initial, double work) {
 // A run takes at most this many steps (prepare_run).
 constexpr double kMaxSteps = 1e12;
 
-// Past this relative energy error (or energy balance error, with external forces) a run stops
-// with Status::BlewUp: the energy has more than doubled or vanished.
-constexpr double kBlowUpEnergyError = 1.0;
-
 bool finite(const Diagnostics& d) {
   return std::isfinite(d.energy) && std::isfinite(d.residual) && std::isfinite(d.gap) &&
          !std::isinf(d.energy_post);  // energy_post is NaN where it is not defined
@@ -179,6 +176,12 @@ std::string parasitic_warning(const RunSummary& r, const RattleOptions& o) {
   return os.str();
 }
 
+// What to change when the energy blew up: a grown period-2 mode needs restarts (a smaller step
+// does not help it), anything else a smaller step.
+std::string energy_advice(const RunSummary& r, const RattleOptions& o) {
+  return r.parasitic_max > kParasiticWarning ? parasitic_warning(r, o) : "reduce --dt";
+}
+
 bool reference_method(const std::string& name) {
   return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner";
 }
@@ -212,6 +215,7 @@ std::vector<SummaryField> RunSummary::fields() const {
     number("energy_post_rel_err_max", energy_post_rel_err_max);
   }
   number("residual_max", residual_max);
+  number("residual_rel_max", residual_rel_max);
   number("gap_max", gap_max);
   if (restarts >= 0) {
     integer("restarts", restarts);
@@ -221,7 +225,7 @@ std::vector<SummaryField> RunSummary::fields() const {
   if (legendre_iterations_max >= 0) integer("legendre_iterations_max", legendre_iterations_max);
   if (rhs_evaluations >= 0) integer("rhs_evals", rhs_evaluations);
   if (factorizations >= 0) integer("factorizations", factorizations);
-  if (!std::isnan(error_estimate)) number("error_estimate", error_estimate);
+  if (has_error_estimate || !std::isnan(error_estimate)) number("error_estimate", error_estimate);
   if (!std::isnan(extent)) number("extent", extent);
   if (!std::isnan(stability_ratio)) number("stability_ratio", stability_ratio);
   text("backend", backend);
@@ -374,23 +378,29 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.restarts = runner->restarts();
   if (reflection && model.has_rigid_bodies()) summary.rotation = to_string(choice.rattle.rotation);
   summary.parasitic_max = std::numeric_limits<double>::quiet_NaN();  // until measured
-  // With external forces the energy is not an invariant: the reflection method's discrete
-  // work-energy identity (DESIGN.md section 8) gives the balance instead. The other methods
-  // have no such identity; their energy error is then not reported.
+  // With external forces the energy is not an invariant: the balance against the work is. The
+  // order-2 reflection step has its discrete work-energy identity (DESIGN.md section 8); the
+  // other methods and the composed steps (whose multipliers restart) integrate the power.
   const bool forced = model.has_external_force();
-  // (A composed step has no discrete work-energy identity: its multipliers restart.)
-  summary.has_work = forced && reflection && choice.rattle.order == 2;
-  const double power0 = summary.has_work ? runner->power() : 0.0;
-  double power = power0;
+  summary.has_work = forced;
+  const bool exact_work = forced && reflection && choice.rattle.order == 2 && !model.has_configuration_metric();
+  Vector force(model.num_velocities());
+  auto power_now = [&] { return external_power(model, runner->t(), runner->q(), runner->velocity(), force); };
   summary.bodies = model.num_bodies();
   summary.dt = dt;
   summary.has_momentum = !model.momentum_maps().empty();
 
   const Diagnostics d0 = runner->diagnostics();
+  const double power0 = forced ? power_now() : 0.0;
+  double power = power0;
+  WorkIntegral work;
+  work.start(power0, dt);
   Vector j0(model.momentum_maps().size()), j(model.momentum_maps().size());
   runner->momentum_maps(j0);
   summary.residual_max = d0.residual;
+  summary.residual_rel_max = runner->relative_residual();
   summary.gap_max = d0.gap;
+  const double lever_arm = hitch_lever_arm(model, runner->q(), runner->workspace());
   if (csv) csv->row(runner->t(), runner->q(), d0);
   for (FrameSink* s : sinks) s->frame(runner->t(), runner->q(), runner->p(), d0);
   if (!finite(d0)) {
@@ -401,6 +411,8 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   }
   StabilityWatch stability(model, choice, dt);
   if (summary.status == Status::Ok) summary.status = stability.check(*runner, 0, summary.message);
+  PrecisionWatch precision(model);
+  if (summary.status == Status::Ok) summary.status = precision.check(runner->q(), runner->velocity(), dt, 0, summary.message);
 
   double output_s = 0.0;
   const double t0 = runner->t();
@@ -417,6 +429,9 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       break;
     }
     if (k > 1 && (summary.status = stability.check(*runner, k - 1, summary.message)) != Status::Ok) break;
+    if (k > 1 && PrecisionWatch::due(k - 1) &&
+        (summary.status = precision.check(runner->q(), runner->velocity(), dt, k - 1, summary.message)) != Status::Ok)
+      break;
     const Status status = runner->advance(t0 + static_cast<double>(k) * dt);
     if (status != Status::Ok) {
       summary.status = status;
@@ -437,13 +452,21 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     // there is some. The identity: E_post(k-1/2) - E_post(-1/2) = sum_{j<k} h F_j^T M^-1 p~_j,
     // exactly. The energy of p~_k sits half a step of work later: E(p~) = E_post(k-1/2) +
     // (h/2) F_k^T M^-1 p~_k + O(h^2), so it is compared with the work to t_k, W + (h/2)(P_k - P_0).
+    // The other methods and orders: the energy they report against W(t_k) by Gregory's rule,
+    // whose error is below the method's own (run_checks.hpp).
     double e, ep;
-    if (summary.has_work) {
+    if (exact_work) {
       summary.work += dt * power;
-      power = runner->power();
+      power = power_now();
       e = balance_error(d.energy, d0.energy, summary.work + 0.5 * dt * (power - power0));
       ep = balance_error(d.energy_post, d0.energy_post, summary.work);
       summary.energy_balance_err_max = worst(summary.energy_balance_err_max, ep);
+    } else if (forced) {
+      work.add(power_now());
+      summary.work = work.value();
+      e = work.accurate() || k == steps ? balance_error(d.energy, d0.energy, summary.work) : 0.0;
+      ep = std::numeric_limits<double>::quiet_NaN();
+      summary.energy_balance_err_max = worst(summary.energy_balance_err_max, e);
     } else {
       e = relative_change(d.energy, d0.energy);
       ep = relative_change(d.energy_post, d0.energy_post);
@@ -455,18 +478,17 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       if (!std::isnan(a)) summary.parasitic_max = std::isnan(summary.parasitic_max) ? a : std::max(summary.parasitic_max, a);
     }
     summary.residual_max = worst(summary.residual_max, d.residual);
+    const double residual_rel = k == 1 || k % kResidualEvery == 0 || k == steps ? runner->relative_residual() : 0.0;
+    summary.residual_rel_max = worst(summary.residual_rel_max, residual_rel);
     summary.gap_max = worst(summary.gap_max, d.gap);
-    // Blown up: every energy measure the method has is off by more than its initial value
-    // (net of the work). The plain method's period-2 mode moves the energy of p~ by that much
-    // while energy_post stays exact, so the smaller of the two decides.
+    // Blown up: every energy measure the method has is off by more than the bound (net of the
+    // work). The plain method's period-2 mode moves the energy of p~ by that much while
+    // energy_post stays exact, so the smaller of the two decides.
     const double error = std::isnan(ep) ? e : std::min(e, ep);
-    if (summary.status == Status::Ok && (!forced || summary.has_work) && error > kBlowUpEnergyError) {
-      summary.status = Status::BlewUp;
-      std::ostringstream os;
-      os << "the energy changed by " << error << " times its initial value by step " << k << " (t = " << runner->t()
-         << "): the trajectory blew up; reduce --dt";
-      summary.message = os.str();
-    }
+    if (summary.status == Status::Ok && error > kEnergyBound)
+      summary.status = energy_blew_up(error, forced, k, runner->t(), energy_advice(summary, choice.rattle), summary.message);
+    if (summary.status == Status::Ok)
+      summary.status = check_constraints(residual_rel, d.gap, lever_arm, k, runner->t(), summary.message);
     if (summary.has_momentum) {
       runner->momentum_maps(j);
       summary.momentum_drift_max = worst(summary.momentum_drift_max, (j - j0).lpNorm<Eigen::Infinity>());
@@ -497,8 +519,8 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   const double loop_s = seconds_since(loop_start) - output_s - companion_s;
   summary.stability_ratio = stability.ratio();
   if (summary.status == Status::Ok) {
-    const std::string w = stability.warning();
-    if (!w.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + w;
+    for (const std::string& w : {stability.warning(), precision.warning()})
+      if (!w.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + w;
   }
   if (const AccuracyWatch* w = runner->accuracy()) {
     summary.error_estimate = w->estimate();
@@ -509,8 +531,11 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
                          "): dt is within a factor 2 of what the method can take here; the estimate covers the "
                          "samples that worked";
   }
-  if (config.error_estimate) summary.error_estimate = summary.steps > 0 ? run.companion.scale * difference
-                                                                        : std::numeric_limits<double>::quiet_NaN();
+  // A run without a step compared nothing: no estimate.
+  summary.has_error_estimate = config.error_estimate;
+  if (config.error_estimate)
+    summary.error_estimate =
+        summary.steps > 0 ? run.companion.scale * difference : std::numeric_limits<double>::quiet_NaN();
   if (csv) csv->close();
   for (FrameSink* s : sinks) s->end();
   summary.t_final = runner->t();
@@ -519,7 +544,6 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   if (summary.restarts >= 0) summary.restarts = runner->restarts();
   if (model.has_rigid_bodies()) summary.legendre_iterations_max = runner->legendre_iterations();
   if (forced) summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();  // not an invariant
-  if (forced && !summary.has_work) summary.energy_rel_err_max = std::numeric_limits<double>::quiet_NaN();
   if (summary.status == Status::Ok && summary.parasitic_max > kParasiticWarning)
     summary.warning += (summary.warning.empty() ? "" : " ") + parasitic_warning(summary, choice.rattle);
   // ARKODE stops at every output time (--dt): one step per interval means that its error

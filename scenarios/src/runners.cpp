@@ -1,5 +1,7 @@
 #include "runners.hpp"
 
+#include "run_checks.hpp"
+
 #include <nonholo/dla.hpp>
 #include <nonholo/implicit.hpp>
 #include <nonholo/start.hpp>
@@ -14,6 +16,13 @@ namespace {
 
 void announce(const SetupPhase& phase, const char* what) {
   if (phase) phase(what);
+}
+
+// relative_residual of v at q with the workspace's mu(q) (evaluated unless it holds it).
+double relative_residual_at(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef v) {
+  if (model.num_one_forms() == 0) return 0.0;
+  if (ws.evaluate_one_forms(q) != Status::Ok) return std::numeric_limits<double>::quiet_NaN();
+  return relative_residual(model.one_form_pattern(), ws.mu_values.data(), v);
 }
 
 class ReflectionRunner final : public Runner {
@@ -51,7 +60,11 @@ class ReflectionRunner final : public Runner {
   double parasitic() const override { return ws_.parasitic; }
   long restarts() const override { return state_.restarts; }
   long legendre_iterations() const override { return ws_.legendre_iterations; }
-  double power() override { return external_power(model_, ws_, state_); }
+  ConstVecRef velocity() override {
+    model_.inverse_mass().multiply(state_.p.data(), velocity_.data());
+    return velocity_;
+  }
+  double relative_residual() override { return relative_residual_at(model_, ws_, state_.q, velocity()); }
   long factorizations() const override { return ws_.factorizations; }
   Workspace* workspace() override { return &ws_; }
 
@@ -61,6 +74,7 @@ class ReflectionRunner final : public Runner {
   RattleOptions options_;
   State state_;
   std::unique_ptr<AccuracyWatch> watch_;
+  Vector velocity_ = Vector::Zero(model_.num_velocities());
 };
 
 class DlaRunner final : public Runner {
@@ -103,6 +117,11 @@ class DlaRunner final : public Runner {
     for (std::size_t i = 0; i < maps.size(); ++i) out[static_cast<Eigen::Index>(i)] = maps[i].map(state_.q, state_.p);
   }
   ConstVecRef p() override { return state_.p; }
+  ConstVecRef velocity() override {
+    model_.inverse_mass().multiply(state_.p.data(), velocity_.data());
+    return velocity_;
+  }
+  double relative_residual() override { return relative_residual_at(model_, ws_, state_.q, velocity()); }
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return ws_.backend_name(); }
   long factorizations() const override { return ws_.factorizations; }
@@ -112,6 +131,7 @@ class DlaRunner final : public Runner {
   Workspace ws_;
   DlaOptions options_;
   DlaState state_;
+  Vector velocity_ = Vector::Zero(model_.num_velocities());
 };
 
 // The general implicit form, for models with a configuration-dependent metric.
@@ -138,6 +158,7 @@ class ImplicitRunner final : public Runner {
       d.energy = d.energy_post = d.residual = std::numeric_limits<double>::quiet_NaN();
       return d;
     }
+    velocity_ = ws_.metric_llt.solve(average_);  // reflect() factorised M(q_k)
     const double v = model_.potential(state_.q);
     d.energy = ws_.kinetic_energy(state_.q, average_) + v;
     d.energy_post = ws_.kinetic_energy(state_.q, state_.p) + v;
@@ -152,6 +173,20 @@ class ImplicitRunner final : public Runner {
     for (std::size_t i = 0; i < maps.size(); ++i) out[static_cast<Eigen::Index>(i)] = maps[i].map(state_.q, state_.p);
   }
   ConstVecRef p() override { return state_.p; }
+  ConstVecRef velocity() override { return velocity_; }
+  // Row by row of the dense mu(q_k) the diagnostics left in the workspace.
+  double relative_residual() override {
+    if (model_.num_one_forms() == 0) return 0.0;
+    const double v_max = velocity_.lpNorm<Eigen::Infinity>();
+    if (!(v_max > 0.0)) return v_max == 0.0 ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+    double worst = 0.0;
+    for (Eigen::Index i = 0; i < ws_.mu.rows(); ++i) {
+      const double norm = ws_.mu.row(i).lpNorm<1>();
+      const double rel = norm > 0.0 ? std::abs(ws_.mu.row(i).dot(velocity_)) / (norm * v_max) : 0.0;
+      if (!(rel <= worst)) worst = rel;
+    }
+    return worst;
+  }
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return "dense-implicit"; }
   double parasitic() const override { return ws_.parasitic; }
@@ -163,6 +198,7 @@ class ImplicitRunner final : public Runner {
   ImplicitOptions options_;
   ImplicitState state_;
   Vector average_, reflected_;
+  Vector velocity_ = Vector::Zero(model_.num_velocities());
 };
 
 // The velocity of the consistent start, M^-1 p~_0, in D(q0).
@@ -210,6 +246,12 @@ class ReferenceRunner final : public Runner {
   ConstVecRef p() override {
     model_.mass().multiply(integrator_.v().data(), p_.data());
     return p_;
+  }
+  ConstVecRef velocity() override { return integrator_.v(); }
+  // At the solver's own q (the one residual() reads).
+  double relative_residual() override {
+    const Eigen::Map<const Vector> q(integrator_.y(), model_.num_configuration());
+    return relative_residual_at(model_, integrator_.ode().workspace(), q, integrator_.v());
   }
   std::string message() const override { return integrator_.message(); }
   std::string backend() const override {

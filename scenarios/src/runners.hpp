@@ -42,8 +42,13 @@ class Runner {
   // Reflection on a model with rigid bodies: the most Newton iterations a discrete Legendre
   // transform has taken (-1 for the other methods).
   virtual long legendre_iterations() const { return -1; }
-  // Reflection only: F(t, q)^T M^-1 p~ of the current state (external_power, diagnostics.hpp).
-  virtual double power() { return std::numeric_limits<double>::quiet_NaN(); }
+  // The velocity the diagnostics are of (reflection: M^-1 p~; DLA: M^-1 p_{k-1/2}; the
+  // reference methods: v; the implicit form: M(q)^-1 P* p+), n_v entries. Valid after
+  // diagnostics(); the run's work and precision checks use it.
+  virtual ConstVecRef velocity() = 0;
+  // relative_residual (run_checks.hpp) of velocity() at q: |mu_i v| / (|mu_i|_1 |v|_inf) at
+  // its largest; 0 without one-forms, NaN if mu(q) is not finite. After diagnostics().
+  virtual double relative_residual() = 0;
   // The workspace whose factorisation holds C(q()) between steps, when the method has one
   // (the stability watch borrows it instead of building its own).
   virtual Workspace* workspace() { return nullptr; }

@@ -23,7 +23,7 @@ inline CliResult run_cli(std::vector<std::string> args) {
   return {code, out.str(), err.str()};
 }
 
-// The key=value fields of a summary line.
+// The key=value pairs of a summary line.
 inline std::map<std::string, std::string> summary_fields(const std::string& line) {
   std::map<std::string, std::string> kv;
   std::istringstream in(line);

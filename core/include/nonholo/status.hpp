@@ -22,14 +22,15 @@ enum class Status {
   InvalidOptions,       // the step's options break a rule (the message names the field)
   CallbackFailed,       // a model callback threw; the message has its text
   UnstableStepSize,     // h at or beyond the explicit method's stability limit (stability.hpp)
-  BlewUp,               // a run's energy error passed 100% or its diagnostics overflowed: not a solution
+  BlewUp,               // a run's energy error passed 50%, a constraint bound or its diagnostics overflowed
   Interrupted,          // a run stopped by SIGINT (the command-line tool)
   LegendreNotSolved,    // a rigid body's discrete Legendre transform has no solution (h |Omega| too large)
   Inaccurate,           // a run whose estimated error exceeds its accuracy tolerance (results kept)
   WorkspaceBusy,        // another call is using the workspace (busy_flag.hpp); its message is that call's
+  PrecisionLoss,        // a run's coordinates are so large that a step's displacement is below their ulp
 };
 // The last enumerator (for loops over all of them, the Python enum's).
-inline constexpr Status kLastStatus = Status::WorkspaceBusy;
+inline constexpr Status kLastStatus = Status::PrecisionLoss;
 
 const char* to_string(Status status);
 

@@ -89,14 +89,20 @@ struct RunSummary {
   double ns_per_body_step = 0.0;
   double energy_rel_err_max = 0.0;
   double energy_post_rel_err_max = 0.0;
-  double residual_max = 0.0;
+  double residual_max = 0.0;  // max over the steps of max_a |(mu(q_k) v_k)_a|: absolute
+  // max_a |(mu v)_a| / (|mu_a|_1 |v|_inf) (run_checks.hpp) at its largest over the start, the
+  // first step, every 7th and the last: the residual relative to the scale of the row and of
+  // the velocity, the one the run's bound applies to.
+  double residual_rel_max = 0.0;
   double gap_max = 0.0;  // max over the steps of max_j |g_j(q_k)| (hitches; 0 without)
   // Reflection: multiplier restarts, and the largest parasitic amplitude measured (NaN if none).
   long restarts = -1;  // -1: not applicable (other methods)
   double parasitic_max = 0.0;
-  // Models with external forces (reflection): the work they did, sum_k h F_k^T M^-1 p~_k (NaN
-  // when not applicable or, in a batch, not summed), and the balance error of the
-  // post-momentum energy against it. energy_rel_err_max is then also net of that work.
+  // Models with external forces: the work they did (NaN in a batch, where it is not summed) and
+  // the balance error of the energy against it; energy_rel_err_max is then also net of the
+  // work. The order-2 reflection step: sum_k h F_k^T M^-1 p~_k, its discrete identity, and the
+  // post-momentum's energy; the other methods and orders: the integral of F^T v by Gregory's
+  // rule from the step ends (run_checks.hpp), and the energy the method reports.
   bool has_work = false;
   double work = 0.0;
   double energy_balance_err_max = 0.0;
@@ -106,7 +112,8 @@ struct RunSummary {
   // The estimated max error in q (max norm). With RunConfig::error_estimate: max over the output
   // times of |q - q^|_inf against the companion trajectory q^, scaled by 2^p / (2^p - 1) for a
   // fixed-step method of order p (Richardson). Otherwise the in-run accuracy check's estimate
-  // (nonholo/accuracy.hpp). NaN when not computed.
+  // (nonholo/accuracy.hpp). NaN when not computed (also when the run took no step: refused
+  // before it, or its first step failed).
   double error_estimate = std::numeric_limits<double>::quiet_NaN();
   // What error_estimate is judged against (the accuracy check): the widest range any coordinate
   // swept, and the tolerance (a fraction of it; 0: the check is off). NaN: no check.
@@ -116,6 +123,7 @@ struct RunSummary {
   // (nonholo/stability.hpp); NaN when not applicable. A run refuses 1 or more, warns from 0.5.
   double stability_ratio = std::numeric_limits<double>::quiet_NaN();
   bool has_momentum = false;
+  bool has_error_estimate = false;  // asked for (RunConfig::error_estimate): the key shows, nan or not
   double momentum_drift_max = 0.0;  // max over the momentum maps of |J_k - J_0|
   // Reflection on a model with 3-D rigid bodies: the rotation Lagrangian, and the most Newton
   // iterations a Legendre transform took in the run (-1: not applicable).
