@@ -133,14 +133,15 @@ def _option(args, keyword, flag, value, form):
 
 
 def _run_arguments(what, scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                   monitor_every, composition, error_estimate, project, tol, rotation=None):
+                   monitor_every, composition, error_estimate, project, tol, rotation=None, accuracy=None):
     args = [_scene(scene, what)]
     for keyword, value, form in (
             ("dt", dt, _number), ("t_end", t_end, _number), ("method", method, _text), ("order", order, _integer),
             ("hitch", hitch, _text), ("backend", backend, _text),
             ("restart", restart, lambda k, v: _text(k, v) if isinstance(v, str) else _integer(k, v)),
             ("restart_tol", restart_tol, _number), ("monitor_every", monitor_every, _integer),
-            ("composition", composition, _text), ("rotation", rotation, _text), ("tol", tol, _number)):
+            ("composition", composition, _text), ("rotation", rotation, _text), ("tol", tol, _number),
+            ("accuracy", accuracy, _number)):
         _option(args, keyword, "--" + keyword.replace("_", "-"), value, form)
     if error_estimate:
         args.append("--error-estimate")
@@ -164,7 +165,7 @@ def _finish(result, d, check, what):
 
 def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=None, every=None,
         backend=None, restart=None, restart_tol=None, monitor_every=None, composition=None,
-        error_estimate=False, project=False, tol=None, rotation=None, out=None, check=False):
+        error_estimate=False, project=False, tol=None, rotation=None, accuracy=None, out=None, check=False):
     """Integrates one scene (a built-in name or a scene file) as `nonholo run` does and
     returns a RunResult with its frames and summary.
 
@@ -172,13 +173,15 @@ def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=
     scene parameters, or "NAME=VALUE" strings), method, order, hitch, every (keep every K-th
     step and the last), backend, restart ("auto", 0 or K), restart_tol, monitor_every,
     composition, error_estimate, project, tol, rotation (scenes with 3-D rigid bodies:
-    "moser-veselov", "moser-veselov-f" or "exponential"); out also writes the CLI's file (CSV,
+    "moser-veselov", "moser-veselov-f" or "exponential"), accuracy (the accuracy check's
+    tolerance, a fraction of the motion's extent, default 0.1; 0: off: a run above it ends with
+    summary["status"] "inaccurate", its frames kept); out also writes the CLI's file (CSV,
     or HDF5 for .h5). With rigid bodies q holds each body's quaternion (w, x, y, z) and centre. Bad options raise ValueError with the tool's message; a failed step ends the
     run early with summary["status"] saying why (check=True raises RunError instead). Ctrl-C
     raises KeyboardInterrupt with the frames so far in its .result.
     """
     args = _run_arguments("run", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                          monitor_every, composition, error_estimate, project, tol, rotation)
+                          monitor_every, composition, error_estimate, project, tol, rotation, accuracy)
     _option(args, "every", "--every", every, _integer)
     _option(args, "out", "--out", out, _text)
     d = _core._run(args)
@@ -188,7 +191,7 @@ def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=
 def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None, t_end=None, set=None,
           method=None, order=None, hitch=None, backend=None, restart=None, restart_tol=None,
           monitor_every=None, composition=None, error_estimate=False, project=False, tol=None,
-          rotation=None, check=False):
+          rotation=None, accuracy=None, check=False):
     """Many trajectories of one scene in parallel, as `nonholo batch` does: count
     trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
     from seed, threads (default: all cores), out (the CLI's CSV, or HDF5 for .h5) and run()'s
@@ -197,7 +200,7 @@ def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None
     its next step and raises KeyboardInterrupt with the BatchResult in its .result: the finished
     rows as usual, the others with status "interrupted"."""
     args = _run_arguments("batch", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                          monitor_every, composition, error_estimate, project, tol, rotation)
+                          monitor_every, composition, error_estimate, project, tol, rotation, accuracy)
     args.extend(["--count", _integer("count", count)])
     _option(args, "threads", "--threads", threads, _integer)
     _option(args, "seed", "--seed", seed, _integer)

@@ -87,6 +87,20 @@ def test_a_failed_step_is_reported_in_the_summary_and_raised_on_request():
     assert e.value.result.t.shape == (1,)
 
 
+def test_an_inaccurate_run_keeps_its_frames_and_says_so():
+    # A step of 2 on the sleigh: 1.8 off at t = 10 (ARKODE at 1e-12); the accuracy check's
+    # estimate is above 10 % of the motion's extent.
+    r = nonholo.run("sleigh", dt=2.0)
+    assert r.status == "inaccurate"
+    assert r.summary["error_estimate"] > 0.1 * r.summary["extent"]
+    assert r.t.shape == (6,)  # every frame kept
+    assert "the estimated error in q" in r.summary["message"]
+    with pytest.raises(nonholo.RunError, match="status=inaccurate"):
+        nonholo.run("sleigh", dt=2.0, check=True)
+    assert nonholo.run("sleigh", dt=2.0, accuracy=0).status == "ok"
+    assert nonholo.run("sleigh").summary["error_estimate"] < 1e-3
+
+
 def test_batch_gives_the_clis_table(tmp_path):
     path = tmp_path / "batch.csv"
     # m drawn in [-0.5, 1.5]: some trajectories are refused at set-up (negative mass).
