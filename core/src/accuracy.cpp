@@ -116,7 +116,7 @@ void AccuracyWatch::after_step(const State& s) {
     model_.inverse_mass().multiply(s.p.data(), velocity_.data());
     const double v_floor = 8.0 * std::numeric_limits<double>::epsilon() * velocity_.lpNorm<Eigen::Infinity>() / factor_;
     const bool steady = agree(dq, last_dq_, q_floor) && agree(dv, last_dv_, v_floor);
-    interval_ = steady ? std::min<long>(2 * interval_, every_) : 2;
+    interval_ = steady ? std::min<long>(2 * interval_, every_) : std::max<long>(2, interval_ / 4);
   }
   last_end_ = step_;
   last_dq_ = dq;
