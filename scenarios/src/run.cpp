@@ -138,9 +138,9 @@ std::string parasitic_warning(const RunSummary& r, const RattleOptions& o) {
   if (o.restart.mode != RestartMode::Auto)
     os << "Use --restart auto (energy-exact restarts when needed).";
   else
-    os << "The mode grows faster than the restarts catch it (" << r.restarts << " restarts in " << r.steps
+    os << "Steps excite the mode faster than the restarts remove it (" << r.restarts << " restarts in " << r.steps
        << " steps, tolerance " << o.restart.tolerance_for(o.h)
-       << "): the step is too large for the motion: reduce --dt, or measure every step (--monitor-every 1).";
+       << "): the step is too large for the motion: reduce --dt (the mode's seed falls as dt^3).";
   return os.str();
 }
 

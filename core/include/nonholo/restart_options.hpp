@@ -48,18 +48,21 @@ void set_restart(RestartOptions& options, const std::string& spec);
 std::string restart_spec(const RestartOptions& options);
 
 // A trajectory's measurement schedule (kept with its state): the step count of the next
-// measurement, and the last amplitude measured with its step count (-1 after a restart, 0
-// before any measurement). 32 bytes: the step copies it in and out (at 40 the compiler's
-// `rep movs` cost a batched single sleigh 30% of its step).
+// measurement, and the last amplitude measured with its step count (-1 after a restart, -1 - a
+// after a restart that probes a floor, below; 0 before any measurement). 32 bytes: the step
+// copies it in and out (at 40 the compiler's `rep movs` cost a batched single sleigh 30% of its
+// step).
 struct ModeWatch {
   long next_step = 1;
   long last_step = 0;
   double last_amplitude = 0.0;
-  // Auto restarts: an amplitude measured the step after a restart and already above the
-  // tolerance is what restarts cannot remove (in holonomic mode the round-off of the hitch
-  // gaps, 16 eps |q| each, summed over a long chain: 6e-6 at 10^6 bodies, h = 0.01). Auto with
-  // the default tolerance then restarts only above twice the largest such floor, rather than
-  // at nearly every step; a tolerance the user set is kept as it is.
+  // Auto restarts: an amplitude still above the tolerance the step after each of two restarts
+  // in a row is what restarts cannot remove (in holonomic mode the round-off of the hitch gaps,
+  // 16 eps |q| each, summed over a long chain: 6e-6 at 10^6 bodies, h = 0.01). Auto with the
+  // default tolerance then restarts only above twice the largest such floor, rather than at
+  // nearly every step; a tolerance the user set is kept as it is. One restart is not proof: a
+  // step can excite the mode afresh (a chain passing a configuration where its one-forms become
+  // dependent), and a second restart removes that.
   double floor = 0.0;
 };
 
