@@ -102,5 +102,50 @@ TEST(ModeMessages, TheAdviceOfEachWarningWorks) {
   EXPECT_THAT(restarted.warning, IsEmpty());
 }
 
+// A speed the step cannot follow (issue 23): a sleigh at v0 = 1e4 damps its turn at m a v /
+// (I + m a^2) = 1900/s; at dt = 0.01 the discrete turn reached 8000 rad/s and the mode read 21.9
+// of |p~| (p~ turned, the post-momentum kept its energy). The warning must name the cause and a dt
+// that works, and following it must end without the warning.
+TEST(ModeMessages, ASpeedTooLargeForTheStepNamesADtThatWorks) {
+  const auto coarse = run("sleigh", {"v0=1e4"}, "auto", 0.01, 1.0);
+  EXPECT_THAT(coarse.warning, HasSubstr("turn rate"));
+  const auto at = coarse.warning.find("use --dt ");
+  ASSERT_NE(at, std::string::npos) << coarse.warning;
+  const double dt = std::stod(coarse.warning.substr(at + 9));
+  EXPECT_LT(dt, 1e-3);  // 5e-4 is where the turn's damping h m a v / (I + m a^2) passes 1
+  const auto fine = run("sleigh", {"v0=1e4"}, "auto", dt, 1.0);
+  EXPECT_EQ(fine.status, Status::Ok);
+  EXPECT_THAT(fine.warning, IsEmpty());
+  EXPECT_LT(fine.energy_rel_err_max, 1e-6);
+}
+
+// A body at rest (issue 23): a disk standing upright under gravity has p~ = 0 and energy 0 to
+// round-off. The energy error compared round-off with round-off (1, and blew-up at step 2) and
+// the mode's amplitude divided by |p~| ~ 1e-18 (3, with two restarts).
+TEST(ModeMessages, ABodyAtRestReportsNoChange) {
+  for (const char* restart : {"auto", "0"}) {
+    const auto r = run("rolling_disk", {"Omega1=0", "Omega2=0", "Omega3=0"}, restart, 0.0, 1.0);
+    EXPECT_EQ(r.status, Status::Ok) << restart << ": " << r.message;
+    EXPECT_LT(r.energy_balance_err_max, 1e-10) << restart;
+    EXPECT_LT(r.energy_rel_err_max, 1e-10) << restart;
+    EXPECT_LT(r.parasitic_max, 1e-12) << restart;
+    EXPECT_EQ(r.restarts, 0) << restart;
+    EXPECT_THAT(r.warning, IsEmpty()) << restart;
+  }
+}
+
+// A tiny step (issue 23): with the default tolerance h^3 = 1e-27 at h = 1e-9, below the
+// amplitude's round-off (a few eps), every measurement restarted: 10^4 restarts in 10^4 steps on
+// the sleigh and the snakeboard. With the floor RestartOptions::kRoundOff none is needed.
+TEST(ModeMessages, ATinyStepRestartsOnlyAboveRoundOff) {
+  for (const char* scene : {"sleigh", "snakeboard", "particle"}) {
+    const auto r = run(scene, {}, "auto", 1e-9, 1e-5);
+    EXPECT_EQ(r.status, Status::Ok) << scene;
+    EXPECT_LT(r.restarts, 10) << scene;
+    EXPECT_LT(r.parasitic_max, 1e-13) << scene;  // a few eps
+    EXPECT_THAT(r.warning, IsEmpty()) << scene;
+  }
+}
+
 }  // namespace
 }  // namespace nonholo

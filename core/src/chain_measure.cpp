@@ -17,6 +17,7 @@
 #include "chain_rows.hpp"
 #include "chain_sweep.hpp"
 #include "element_set.hpp"
+#include "restart_internal.hpp"
 
 namespace nonholo::detail {
 namespace {
@@ -40,17 +41,20 @@ Status measure(const Model& model, Workspace& ws, const double* p, const double*
 
   Group groups[2];          // groups b and b+1, by parity
   double z[2][3], v[2][3];  // M^-1 (mu^T x + f) and M^-1 p of bodies b and b+1, by parity
-  double mode = 0.0, momentum = 0.0;
-  // Body c: z and v from g = mu^T x on it (without f), and its share of |p|_{M^-1}^2.
+  double mode = 0.0, arriving = 0.0, kicks = 0.0;  // parasitic_amplitude_of's sums
+  // Body c: z and v from g = mu^T x on it (without f), and its shares of |p_-|^2 and of the
+  // kicks |mu^T lambda~|^2 + |f|^2 in M^-1.
   auto enter = [&](int c, const double* g) {
     const double* w = &body[c].wx;  // wx, wy, wt are consecutive
     for (int k = 0; k < 3; ++k) {
-      const double pk = p[3 * c + k];
-      double gk = fa ? g[k] + fa[3 * c + k] : g[k];
+      const double pk = p[3 * c + k], fk = fa ? fa[3 * c + k] : 0.0;
+      const double pm = pk - 0.5 * h * (g[k] + fk);
+      double gk = g[k] + fk;
       if (from) gk += gap_half(3 * c + k);
       z[c & 1][k] = w[k] * gk;
       v[c & 1][k] = w[k] * pk;
-      momentum += pk * v[c & 1][k];
+      arriving += pm * (w[k] * pm);
+      kicks += g[k] * (w[k] * g[k]) + fk * (w[k] * fk);
     }
   };
   group_rows(body[0], sc, next_sc(0), groups[0], nullptr);
@@ -91,10 +95,7 @@ Status measure(const Model& model, Workspace& ws, const double* p, const double*
     return ws.fail(Status::NonFiniteState,
                    "the continuous multiplier is not finite (the bias or the force is NaN or Inf): "
                    "check the model's bias and forces, or reduce the step size");
-  if (!(momentum > 0.0))
-    amplitude = mode > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-  else
-    amplitude = 0.5 * h * std::sqrt(mode / momentum);
+  amplitude = parasitic_amplitude_of(mode, arriving, kicks, h);
   return Status::Ok;
 }
 

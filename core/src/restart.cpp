@@ -266,9 +266,16 @@ double parasitic_of(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRe
   if (gap_offset) ws.scratch_m += ws.offset_multiplier;
   model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
   const double mode = inverse_mass_dot(model, ws.scratch_n, ws.scratch_n, ws.scratch_n2);
-  const double momentum = p.dot(ws.velocity);  // velocity = M^-1 p (continuous_multiplier_at)
-  if (!(momentum > 0.0)) return mode > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-  return 0.5 * h * std::sqrt(mode / momentum);
+  // The denominator (parasitic_scale): p_- = p - (h/2)(mu^T lambda + f) in p_hat, and the kicks.
+  model.mu_transpose_times(ws.mu_values.data(), lambda.data(), ws.p_hat.data());
+  double kicks = inverse_mass_dot(model, ws.p_hat, ws.p_hat, ws.scratch_n2);
+  if (model.has_applied_force()) {
+    kicks += inverse_mass_dot(model, ws.applied, ws.applied, ws.scratch_n2);
+    ws.p_hat += ws.applied;
+  }
+  ws.p_hat = p - (0.5 * h) * ws.p_hat;
+  const double arriving = inverse_mass_dot(model, ws.p_hat, ws.p_hat, ws.scratch_n2);
+  return parasitic_amplitude_of(mode, arriving, kicks, h);
 }
 
 Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, VecRef lambda,
