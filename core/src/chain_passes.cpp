@@ -175,7 +175,7 @@ void chain_forward_substitute(Workspace& ws, double* y) {
   }
 }
 
-double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale, bool first) {
+double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale) {
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   const ElementSet& set = *model.element_set();
   const ChainBodies body = set.chain_bodies();
@@ -186,9 +186,7 @@ double chain_correct_backward(const Model& model, Workspace& ws, double* x, doub
   double* ph = ws.p_half.data();
   double* qn = ws.q_next.data();
   double* sc = ws.chain_sincos.data();
-  double* gm = ws.gap_multiplier.data();
   const double half = 0.5 * h, drift = 0.5 * h * h;
-  auto solved = [&](int r) { gm[r] = first ? x[r] : gm[r] + x[r]; };
   // p_half += (h/2) mu_k^T dlambda and q_next += (h^2/2) M^-1 mu_k^T dlambda on body b, from
   // its knife edge [s, -c, a] and hitch rows [1, d s | ...], [1, -d c | ...] and the previous
   // hitch's [... | -1, f s], [... | -1, -f c] (group_rows' values, in the same operations).
@@ -217,16 +215,12 @@ double chain_correct_backward(const Model& model, Workspace& ws, double* x, doub
   };
   double worst = 0.0;
   backward_hitched<2>(band, m - 1, m, x);  // the last body's knife edge
-  solved(m - 1);
   for (int b = n_bodies - 2; b >= -1; --b) {
     if (b >= 0) {  // group b: dlambda of its rows
       const int r = 3 * b;
       backward_hitched<3>(band, r + 2, m, x);
       backward_hitched<4>(band, r + 1, m, x);
       backward_hitched<2>(band, r, m, x);
-      solved(r + 2);
-      solved(r + 1);
-      solved(r);
     }
     // Body c = b+1 has all its multipliers (groups c and b): corrected, then the hitch from it
     // (to c+1, corrected before) gives the next right-hand side in place of group c's

@@ -66,18 +66,20 @@ double chain_gap_forward(const Model& model, Workspace& ws, const State& st, dou
                          double& size);
 // The forward substitution alone, of a right-hand side chain_correct_backward left in y.
 void chain_forward_substitute(Workspace& ws, double* y);
-// Back substitution of x into dlambda (added to ws.gap_multiplier; assigned when `first`),
-// p_half += (h/2) mu^T dlambda and q_next += (h^2/2) M^-1 mu^T dlambda body by body, then
+// Back substitution of x into dlambda, p_half += (h/2) mu^T dlambda and q_next += (h^2/2)
+// M^-1 mu^T dlambda body by body, then
 // sin/cos and the gaps of the corrected q_next: the next right-hand side is left in x (not
 // forward-substituted); returns its max |g|.
-double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale, bool first);
+double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale);
 
 // The period-2 mode's amplitude at the state the last fused step produced (ws.chain_sincos
 // and C factorised are of its q; p and lambda its p~ and lambda~), as restart.cpp's
 // continuous_multiplier_at and parasitic_of give it, to round-off, in one pass
 // (chain_measure.cpp). It does not compute lambda_s (a restart does); ws.scratch_m is used.
+// `from`: the state the step started from, when its gap corrections set the offset (null
+// otherwise): their momentum G/2 = (p_half - p~_k - (h/2) force_k) / h enters as a force.
 Status chain_measure(const Model& model, Workspace& ws, const double* p, const double* lambda, double h,
-                     bool gap_offset, double& amplitude);
+                     const State* from, double& amplitude);
 
 // From the state at t_k to ws.q_next, p_next, lambda, force_next (and ws.applied, the applied
 // force at t_{k+1}) as detail::advance computes them; C(q_{k+1}) factorised and mu(q_{k+1})

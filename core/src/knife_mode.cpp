@@ -10,6 +10,7 @@
 
 #include "chain_sweep.hpp"
 #include "element_set.hpp"
+#include "restart_internal.hpp"
 
 namespace nonholo::detail {
 
@@ -27,7 +28,7 @@ bool knife_chain_parasitic(const Model& model, Workspace& ws, ConstVecRef p, Con
   double* v = ws.velocity.data();  // M^-1 p, as continuous_multiplier_at leaves it
   double* ls = ws.lambda_s.data();
   // Sums in coordinate order: for one body the order of Eigen's reductions in the general path.
-  double sum = 0.0, mode = 0.0, momentum = 0.0;
+  double sum = 0.0, mode = 0.0, arriving = 0.0, kicks = 0.0, forces = 0.0;  // parasitic_amplitude_of's
   for (int b = 0; b < n_bodies; ++b) {
     const ChainBody& cb = body[b];
     const double s = sc[2 * b], c = sc[2 * b + 1];
@@ -45,13 +46,19 @@ bool knife_chain_parasitic(const Model& model, Workspace& ws, ConstVecRef p, Con
     const double diff = lam[b] - ls[b];
     const double g[3] = {s * diff, -c * diff, cb.a * diff};
     mode = ((mode + g[0] * (cb.wx * g[0])) + g[1] * (cb.wy * g[1])) + g[2] * (cb.wt * g[2]);
-    momentum = ((momentum + pb[0] * vb[0]) + pb[1] * vb[1]) + pb[2] * vb[2];
+    // The arriving post-momentum p - (h/2)(mu^T lambda + f) and the kicks (parasitic_of).
+    const double k[3] = {s * lam[b], -c * lam[b], cb.a * lam[b]};
+    const double* w = &cb.wx;  // wx, wy, wt are consecutive
+    for (int i = 0; i < 3; ++i) {
+      const double fi = forced ? fa[3 * b + i] : 0.0;
+      const double pm = pb[i] - 0.5 * h * (k[i] + fi);
+      arriving += pm * (w[i] * pm);
+      kicks += k[i] * (w[i] * k[i]);
+      forces += fi * (w[i] * fi);
+    }
   }
   if (!std::isfinite(sum)) return false;  // the general path reports it
-  if (!(momentum > 0.0))
-    amplitude = mode > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-  else
-    amplitude = 0.5 * h * std::sqrt(mode / momentum);
+  amplitude = parasitic_amplitude_of(mode, arriving, kicks + forces, h);
   return true;
 }
 

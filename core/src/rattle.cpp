@@ -156,7 +156,6 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
   const double tolerance = std::max(o.gap_tolerance, floor);
   const auto& rows = model.holonomic_rows();
   const int count = model.num_holonomic();
-  if (!chain) ws.gap_multiplier.setZero();  // the chain's first correction assigns it
   for (int it = 0;; ++it) {
     if (!chain) {  // the chain's gaps came with its last pass
       model.gap(ws.q_next, ws.gap);
@@ -171,13 +170,12 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
     if (it == o.max_gap_iterations) return gap_failure(model, ws, s, o, h, worst, it, tolerance);
     if (chain) {
       if (it > 0) detail::chain_forward_substitute(ws, x);
-      worst = detail::chain_correct_backward(model, ws, x, h, scale, it == 0);
+      worst = detail::chain_correct_backward(model, ws, x, h, scale);
       continue;
     }
     ws.rhs.setZero();
     for (int j = 0; j < count; ++j) ws.rhs[rows[j]] = scale * ws.gap[j];
     if ((status = ws.solve(ws.rhs.data(), x)) != Status::Ok) return status;
-    ws.gap_multiplier += ws.scratch_m;
     model.mu_transpose_times(ws.mu_values.data(), x, ws.scratch_n.data());
     ws.p_half += (0.5 * h) * ws.scratch_n;
     if (model.has_rigid_bodies()) {  // the drift is not linear in p_half: take it again
@@ -242,22 +240,25 @@ Status control_mode(const Model& model, Workspace& ws, const State& s, const Res
   if (measure && knives) {
     measured = detail::knife_chain_parasitic(model, ws, ws.p_next, ws.lambda, h, ws.parasitic);
   } else if (measure && fused) {  // the sweeps just left sin/cos and C of q_{k+1}: one pass
-    if ((status = detail::chain_measure(model, ws, ws.p_next.data(), ws.lambda.data(), h, gap_offset,
+    if ((status = detail::chain_measure(model, ws, ws.p_next.data(), ws.lambda.data(), h, gap_offset ? &s : nullptr,
                                         ws.parasitic)) != Status::Ok)
       return status;
     measured = true;
   }
-  if (!measured) {
-    if ((status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied)) != Status::Ok)
-      return status;
+  // lambda_s at q_{k+1}, and the gap corrections' offset (restart_internal.hpp).
+  auto multiplier_and_offset = [&] {
+    Status st = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied);
+    if (st == Status::Ok && gap_offset) st = detail::gap_offset_multiplier(model, ws, s, h);
     multiplier = true;
+    return st;
+  };
+  if (!measured) {
+    if ((status = multiplier_and_offset()) != Status::Ok) return status;
     if (measure) ws.parasitic = detail::parasitic_of(model, ws, ws.p_next, ws.lambda, h, gap_offset);
   }
   if (measure) restart = detail::plan_after_measurement(o, h, watch, now, ws.parasitic) || restart;
   if (restart) {
-    if (!multiplier &&
-        (status = detail::continuous_multiplier_at(model, ws, ws.q_next, ws.p_next, ws.applied)) != Status::Ok)
-      return status;
+    if (!multiplier && (status = multiplier_and_offset()) != Status::Ok) return status;
     status = detail::rescaled_restart(model, ws, ws.q_next, ws.p_next, ws.lambda, ws.force_next, ws.applied, h,
                                       gap_offset);
     if (status != Status::Ok) return status;

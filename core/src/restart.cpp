@@ -181,9 +181,14 @@ bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, lon
   // The default tolerance (o.tolerance = 0) gives way to the floor; one the user set does not.
   const bool floored = o.mode == RestartMode::Auto && !(o.tolerance > 0.0);
   double tolerance = std::max(o.tolerance_for(h), floored ? 2.0 * w.floor : 0.0);
+  bool probe = false;
   if (floored && w.last_amplitude < 0.0 && now == w.last_step + 1 && a > tolerance) {
-    w.floor = a;  // a restart one step ago could not bring it lower (ModeWatch::floor)
-    tolerance = 2.0 * a;
+    if (w.last_amplitude < -1.0) {  // two restarts in a row could not bring it lower (ModeWatch::floor)
+      w.floor = std::max(a, -1.0 - w.last_amplitude);
+      tolerance = 2.0 * w.floor;
+    } else {
+      probe = true;  // restart once more: a floor stays, a mode this one step excited goes
+    }
   }
   const bool restart = o.mode == RestartMode::Auto && !(a <= tolerance);
   if (o.mode == RestartMode::Auto) {
@@ -208,13 +213,16 @@ bool plan_after_measurement(const RestartOptions& o, double h, ModeWatch& w, lon
   }
   w.next_step = now + std::max(1L, interval);
   w.last_step = now;
-  w.last_amplitude = a;
+  w.last_amplitude = probe ? -1.0 - a : a;  // the probe's restart keeps it (plan_after_restart)
   return restart;
 }
 
 void plan_after_restart(const RestartOptions& o, ModeWatch& w, long now) {
+  // A restart: -1, or -1 - a when it probes whether the amplitude a a restart left is a floor
+  // (a measurement's amplitude is never negative).
+  const bool probe = w.last_step == now && w.last_amplitude < -1.0;
   w.last_step = now;
-  w.last_amplitude = -1.0;  // a restart (a measurement's amplitude is never negative)
+  if (!probe) w.last_amplitude = -1.0;
   if (o.mode == RestartMode::Auto) w.next_step = now + 1;
 }
 
@@ -240,15 +248,35 @@ Status continuous_multiplier_at(const Model& model, Workspace& ws, ConstVecRef q
   return Status::Ok;
 }
 
+void gap_momentum_half(const Workspace& ws, const State& from, double h, VecRef out) {
+  out = (ws.p_half - from.p - (0.5 * h) * from.force) / h;
+}
+
+Status gap_offset_multiplier(const Model& model, Workspace& ws, const State& from, double h) {
+  Status status = ws.evaluate_one_forms(ws.q_next);  // cached, as in continuous_multiplier_at
+  if (status != Status::Ok) return status;
+  gap_momentum_half(ws, from, h, ws.scratch_n);
+  model.inverse_mass().multiply(ws.scratch_n.data(), ws.scratch_n2.data());
+  model.mu_times(ws.mu_values.data(), ws.scratch_n2.data(), ws.rhs.data());
+  return ws.solve(ws.rhs.data(), ws.offset_multiplier.data());
+}
+
 double parasitic_of(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRef lambda, double h,
                     bool gap_offset) {
   ws.scratch_m = lambda - ws.lambda_s;
-  if (gap_offset) ws.scratch_m += 0.5 * ws.gap_multiplier;
+  if (gap_offset) ws.scratch_m += ws.offset_multiplier;
   model.mu_transpose_times(ws.mu_values.data(), ws.scratch_m.data(), ws.scratch_n.data());
   const double mode = inverse_mass_dot(model, ws.scratch_n, ws.scratch_n, ws.scratch_n2);
-  const double momentum = p.dot(ws.velocity);  // velocity = M^-1 p (continuous_multiplier_at)
-  if (!(momentum > 0.0)) return mode > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
-  return 0.5 * h * std::sqrt(mode / momentum);
+  // The denominator (parasitic_scale): p_- = p - (h/2)(mu^T lambda + f) in p_hat, and the kicks.
+  model.mu_transpose_times(ws.mu_values.data(), lambda.data(), ws.p_hat.data());
+  double kicks = inverse_mass_dot(model, ws.p_hat, ws.p_hat, ws.scratch_n2);
+  if (model.has_applied_force()) {
+    kicks += inverse_mass_dot(model, ws.applied, ws.applied, ws.scratch_n2);
+    ws.p_hat += ws.applied;
+  }
+  ws.p_hat = p - (0.5 * h) * ws.p_hat;
+  const double arriving = inverse_mass_dot(model, ws.p_hat, ws.p_hat, ws.scratch_n2);
+  return parasitic_amplitude_of(mode, arriving, kicks, h);
 }
 
 Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, VecRef lambda,
@@ -285,7 +313,7 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   // Now lambda_s holds lambda_B(p~) = lambda_0 + lambda_1 + lambda_2 (the bias part).
   Vector& a = ws.p_hat;
   Vector& c = ws.p_half;
-  Vector& lambda_const = ws.scratch_m;  // lambda_F + lambda_0 (- dlambda/2)
+  Vector& lambda_const = ws.scratch_m;  // lambda_F + lambda_0 (- x)
   if (maps) {
     if ((status = split_by_maps(model, ws, q, p)) != Status::Ok) return status;
     // Polarisation of the bias: B(v_J + s v_r) = B(v_J) + s B_1 + s^2 B_2 from s = 0, 1, -1.
@@ -301,7 +329,7 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
     lambda_const.setZero();  // lambda_0 = lambda_1 = 0, lambda_2 = lambda_B
   }
   if (forced) lambda_const += ws.lambda_f;
-  if (gap_offset) lambda_const -= 0.5 * ws.gap_multiplier;
+  if (gap_offset) lambda_const -= ws.offset_multiplier;
 
   // p_-(s) = a + s b + s^2 c.
   model.mu_transpose_times(ws.mu_values.data(), lambda_const.data(), a.data());

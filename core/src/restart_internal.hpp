@@ -24,19 +24,48 @@ Status parasitic_amplitude(const Model& model, Workspace& ws, const State& s, do
 Status continuous_multiplier_at(const Model& model, Workspace& ws, ConstVecRef q, ConstVecRef p,
                                 ConstVecRef applied);
 
-// In holonomic mode the first half kick uses lambda~_k + dlambda_k (the gap correction), and
-// lambda~ settles at the smooth offset lambda_s - dlambda/2 (from lambda~_{k+1} ~ 2 lambda_s -
-// lambda~_k - dlambda_k); the period-2 mode is the alternating part about it. gap_offset: use
-// the last step's dlambda (ws.gap_multiplier) for that offset.
+// In holonomic mode the first half kick of the step from q_k adds (h/2) G to p_half, G =
+// mu_k^T dlambda_k (the gap corrections), and the constraint kick at q_{k+1} projects it: in
+// momenta, the arriving kick (h/2) mu^T lambda~_{k+1} = -P (p~_k + the departing kick), P =
+// mu^T C^-1 mu M^-1 at q_{k+1}, so lambda~ settles at lambda_s - x with x = C^-1 mu M^-1 G/2,
+// and the period-2 mode is the alternating part about that. (The offset was dlambda/2 until
+// issue 23: the same where mu_k ~ mu_{k+1}, but where C is nearly singular, a chain passing a
+// configuration where its one-forms become dependent, dlambda is large along C(q_k)'s
+// near-null direction and mu_{k+1}^T dlambda is not small: it read as a mode of 1.2 where
+// there was 0.02, and the restart that set lambda~ = lambda_s - dlambda/2 failed.)
+// gap_offset: the step made gap corrections; x is in ws.offset_multiplier.
 
-// (h/2) |lambda - lambda_s + dlambda/2|_C / |p|_{M^-1}, right after continuous_multiplier_at(q, p).
+// G/2 = (p_half - p~_k - (h/2) force_k) / h into out (n entries), with ws.p_half the step's
+// corrected first half kick and `from` the state it started from.
+void gap_momentum_half(const Workspace& ws, const State& from, double h, VecRef out);
+// ws.offset_multiplier = x = C^-1 mu M^-1 G/2 at q = ws.q_next (C(q) factorised, p_half as
+// left by the step); uses ws.scratch_n, scratch_n2 and rhs.
+Status gap_offset_multiplier(const Model& model, Workspace& ws, const State& from, double h);
+
+// The amplitude from its squared norms: mode = |mu^T (lambda - lambda_s (+ x))|^2, arriving =
+// |p_-|^2 with p_- = p - (h/2)(mu^T lambda + f) the arriving post-momentum, kicks = |mu^T
+// lambda|^2 + |f|^2 (all in M^-1):
+//   (h/2) sqrt(mode) / sqrt(arriving + (h/2)^2 kicks).
+// p_-, not p~: the mode takes its energy from p~ while p_- keeps it (the post-momentum energy is
+// exact), so a mode that drained p~ to 8% (a sleigh at v0 = 1e4, h = 0.01) reads about 1 of
+// the momentum, where |p~| read 21.9. The kicks are the floor for a body at rest (p~ = p_- = 0
+// to round-off, held by balanced forces: a disk standing under gravity): then the amplitude is
+// the mode's share of the kicks, at round-off eps cond, not round-off over round-off (it read 3).
+inline double parasitic_amplitude_of(double mode, double arriving, double kicks, double h) {
+  const double scale = arriving + 0.25 * h * h * kicks;
+  if (!(scale > 0.0)) return mode > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+  return 0.5 * h * std::sqrt(mode / scale);
+}
+
+// The amplitude above right after continuous_multiplier_at(q, p) (and with gap_offset,
+// gap_offset_multiplier); f is ws.applied. Also uses ws.p_hat.
 double parasitic_of(const Model& model, Workspace& ws, ConstVecRef p, ConstVecRef lambda, double h,
                     bool gap_offset);
 
-// After continuous_multiplier_at(q, p): lambda <- lambda_s(q, p') (- dlambda/2 with
-// gap_offset), with p' the rescale of p that keeps the arriving post-momentum energy (plus the
-// averaged potential), and force <- f + mu^T lambda. On failure p, lambda and force are
-// unchanged.
+// After continuous_multiplier_at(q, p) (and with gap_offset, gap_offset_multiplier): lambda <-
+// lambda_s(q, p') (- x with gap_offset), with p' the rescale of p that keeps the arriving
+// post-momentum energy (plus the averaged potential), and force <- f + mu^T lambda. On failure
+// p, lambda and force are unchanged.
 Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef p, VecRef lambda,
                         VecRef force, ConstVecRef applied, double h, bool gap_offset);
 

@@ -31,7 +31,7 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   scratch_m.setZero(m);
   gap.setZero(model.num_holonomic());
   if (m > 0) lambda_s.setZero(m);
-  if (model.num_holonomic() > 0) gap_multiplier.setZero(m);
+  if (model.num_holonomic() > 0) offset_multiplier.setZero(m);
   if (m > 0 && model.has_applied_force()) lambda_f.setZero(m);
   const int maps = static_cast<int>(model.momentum_maps().size());
   if (m > 0 && maps > 0) {

@@ -37,9 +37,27 @@ double seconds_since(Clock::time_point start) {
 }
 
 // Relative change, or absolute when the reference is zero.
-double relative_change(double value, double reference) {
+// floor: rest_scales' energy, for an initial energy of 0 (or below it).
+double relative_change(double value, double reference, double floor) {
   const double diff = std::abs(value - reference);
-  return reference != 0.0 ? diff / std::abs(reference) : diff;
+  const double scale = std::max(std::abs(reference), floor);
+  return scale > 0.0 ? diff / scale : diff;
+}
+
+// The scales of a body at rest (initial energy 0: a disk standing under gravity, where the
+// errors compared round-off with round-off and read 1): the kinetic energy one step of the applied
+// force f(t0, q0) gives from rest, (1/2)|h f|^2_{M^-1}, and the speed, |h M^-1 f|_inf. Round-off
+// in the work, the energy and the velocity is eps times these; a moving body is far above them.
+struct RestScales {
+  double energy = 0.0, speed = 0.0;
+};
+RestScales rest_scales(const Model& model, double t, ConstVecRef q, double h) {
+  if (!model.has_applied_force()) return {};
+  const int n = model.num_velocities();
+  Vector f(n), scratch(n);
+  model.applied_force(t, q, f, scratch);
+  model.inverse_mass().multiply(f.data(), scratch.data());
+  return {0.5 * h * h * f.dot(scratch), h * scratch.lpNorm<Eigen::Infinity>()};
 }
 
 // CSV rows with shortest round-trip formatting, so no digit of the state is lost. A row is
@@ -102,8 +120,8 @@ class CsvWriter {
 
 // The energy error net of the work done by external forces, relative to the largest of the
 // initial energy, the current one and the work (the scales round-off is relative to).
-double balance_error(double energy, double initial, double work) {
-  const double scale = std::max({std::abs(initial), std::abs(energy), std::abs(work)});
+double balance_error(double energy, double initial, double work, double floor) {
+  const double scale = std::max({std::abs(initial), std::abs(energy), std::abs(work), floor});
   const double diff = std::abs(energy - initial - work);
   return scale > 0.0 ? diff / scale : diff;
 }
@@ -129,7 +147,8 @@ constexpr int kAccuracyEvery = 64;
 // The accuracy check's verdict on a run that ended ok: status=inaccurate when the estimated error
 // exceeds the tolerance, a fraction of the motion's extent. The advice: the step that would meet
 // the tolerance if the error falls as dt^p, with a factor 2 to spare.
-void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, double largest_coordinate) {
+void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, const AccuracyWatch& watch) {
+  const double largest_coordinate = watch.largest_coordinate();
   if (summary.status != Status::Ok || !(config.accuracy > 0.0) || std::isnan(summary.extent)) return;
   summary.accuracy = config.accuracy;
   // Step doubling needs the step of 2 dt to be stable: from half the stability limit on, the
@@ -148,7 +167,12 @@ void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, dou
   os << "the estimated error in q, " << e << ", is " << e / summary.extent << " of the motion's extent "
      << summary.extent << " (the widest range a coordinate swept), above --accuracy " << config.accuracy << ": ";
   const double suggested = summary.dt * 0.5 * std::pow(allowed / e, 1.0 / order);
-  if (std::isfinite(suggested) && suggested > 0.0)
+  if (watch.transient_samples() > 0)
+    os << "the step does not resolve a transient (from t = " << watch.first_transient()
+       << ", a step of 2 dt and two of dt differ by more than 1 % of the speed): its error falls more slowly than "
+          "dt^"
+       << order << "; reduce --dt tenfold or more and compare error_estimate";
+  else if (std::isfinite(suggested) && suggested > 0.0)
     os << "the step is too large for this motion; use --dt " << suggested << " or smaller (an order-" << order
        << " method's error falls as dt^" << order << "), or a higher --order";
   else
@@ -167,12 +191,23 @@ std::string parasitic_warning(const RunSummary& r, const RattleOptions& o) {
   os.precision(3);
   os << "the period-2 mode reached " << r.parasitic_max << " of the momentum (parasitic_max): the velocities and "
      << "the trajectory are off by about that much. ";
+  // Above 1 despite the restarts, the continuous multiplier lambda_s(p~), quadratic in the
+  // velocity, kicks the momentum by more than itself in half a step: a speed or turn rate beyond
+  // what the step can follow (a sleigh at v0 = 1e4 damps its turn at 1900/s; at h = 0.01 the
+  // discrete turn reached 8000 rad/s). Without restarts the mode itself grows that far.
+  if (r.parasitic_max >= 1.0 && o.restart.mode == RestartMode::Auto) {
+    os << "Above 1 the step cannot follow the motion: the constraint force that p~'s velocity needs turns the "
+       << "momentum by more than a radian per step (a speed or a turn rate h|omega| too large for dt = " << o.h
+       << "); use --dt " << o.h * std::cbrt(kParasiticWarning / (2.0 * r.parasitic_max))
+       << " or smaller (the mode's seed falls as dt^3).";
+    return os.str();
+  }
   if (o.restart.mode != RestartMode::Auto)
     os << "Use --restart auto (energy-exact restarts when needed).";
   else
-    os << "The mode grows faster than the restarts catch it (" << r.restarts << " restarts in " << r.steps
+    os << "Steps excite the mode faster than the restarts remove it (" << r.restarts << " restarts in " << r.steps
        << " steps, tolerance " << o.restart.tolerance_for(o.h)
-       << "): the step is too large for the motion: reduce --dt, or measure every step (--monitor-every 1).";
+       << "): the step is too large for the motion: reduce --dt (the mode's seed falls as dt^3).";
   return os.str();
 }
 
@@ -395,10 +430,20 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   double power = power0;
   WorkIntegral work;
   work.start(power0, dt);
+  const RestScales rest = rest_scales(model, runner->t(), runner->q(), dt);
+  const double floor = rest.energy;
+  // A velocity at round-off of the rest scale (a body at rest) satisfies no constraint to any
+  // relative accuracy: its relative residual is not judged.
+  const double speed_floor = 64 * std::numeric_limits<double>::epsilon() * rest.speed;
+  auto relative_residual = [&] {
+    return runner->velocity().lpNorm<Eigen::Infinity>() > speed_floor
+               ? runner->relative_residual()
+               : 0.0;
+  };
   Vector j0(model.momentum_maps().size()), j(model.momentum_maps().size());
   runner->momentum_maps(j0);
   summary.residual_max = d0.residual;
-  summary.residual_rel_max = runner->relative_residual();
+  summary.residual_rel_max = relative_residual();
   summary.gap_max = d0.gap;
   const double lever_arm = hitch_lever_arm(model, runner->q(), runner->workspace());
   if (csv) csv->row(runner->t(), runner->q(), d0);
@@ -411,7 +456,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   }
   StabilityWatch stability(model, choice, dt);
   if (summary.status == Status::Ok) summary.status = stability.check(*runner, 0, summary.message);
-  PrecisionWatch precision(model);
+  PrecisionWatch precision(model, speed_floor);
   if (summary.status == Status::Ok) summary.status = precision.check(runner->q(), runner->velocity(), dt, 0, summary.message);
 
   double output_s = 0.0;
@@ -458,18 +503,18 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     if (exact_work) {
       summary.work += dt * power;
       power = power_now();
-      e = balance_error(d.energy, d0.energy, summary.work + 0.5 * dt * (power - power0));
-      ep = balance_error(d.energy_post, d0.energy_post, summary.work);
+      e = balance_error(d.energy, d0.energy, summary.work + 0.5 * dt * (power - power0), floor);
+      ep = balance_error(d.energy_post, d0.energy_post, summary.work, floor);
       summary.energy_balance_err_max = worst(summary.energy_balance_err_max, ep);
     } else if (forced) {
       work.add(power_now());
       summary.work = work.value();
-      e = work.accurate() || k == steps ? balance_error(d.energy, d0.energy, summary.work) : 0.0;
+      e = work.accurate() || k == steps ? balance_error(d.energy, d0.energy, summary.work, floor) : 0.0;
       ep = std::numeric_limits<double>::quiet_NaN();
       summary.energy_balance_err_max = worst(summary.energy_balance_err_max, e);
     } else {
-      e = relative_change(d.energy, d0.energy);
-      ep = relative_change(d.energy_post, d0.energy_post);
+      e = relative_change(d.energy, d0.energy, floor);
+      ep = relative_change(d.energy_post, d0.energy_post, floor);
       summary.energy_post_rel_err_max = worst(summary.energy_post_rel_err_max, ep);
     }
     summary.energy_rel_err_max = worst(summary.energy_rel_err_max, e);
@@ -478,7 +523,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       if (!std::isnan(a)) summary.parasitic_max = std::isnan(summary.parasitic_max) ? a : std::max(summary.parasitic_max, a);
     }
     summary.residual_max = worst(summary.residual_max, d.residual);
-    const double residual_rel = k == 1 || k % kResidualEvery == 0 || k == steps ? runner->relative_residual() : 0.0;
+    const double residual_rel = k == 1 || k % kResidualEvery == 0 || k == steps ? relative_residual() : 0.0;
     summary.residual_rel_max = worst(summary.residual_rel_max, residual_rel);
     summary.gap_max = worst(summary.gap_max, d.gap);
     // Blown up: every energy measure the method has is off by more than the bound (net of the
@@ -522,7 +567,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     for (const std::string& w : {stability.warning(), precision.warning()})
       if (!w.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + w;
   }
-  if (const AccuracyWatch* w = runner->accuracy()) {
+  if (const AccuracyWatch* w = summary.steps > 0 ? runner->accuracy() : nullptr) {  // no step: nothing to judge
     summary.error_estimate = w->estimate();
     summary.extent = w->extent();
     if (w->failed_samples() > 0 && summary.status == Status::Ok)  // a failed run says it all
@@ -556,8 +601,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
                        " intervals): --dt, its output interval, probably capped its step; a larger --dt lets "
                        "its error control choose longer steps (fewer evaluations at the same tolerance)";
   if (!companion_failure.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + companion_failure;
-  judge_accuracy(summary, config, reflection ? choice.rattle.order : 2,
-                 runner->accuracy() ? runner->accuracy()->largest_coordinate() : 0.0);  // after the warnings it may add to
+  if (runner->accuracy() && summary.steps > 0) judge_accuracy(summary, config, reflection ? choice.rattle.order : 2, *runner->accuracy());  // after the warnings it may add to
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   if (final_q) *final_q = runner->q();

@@ -130,7 +130,7 @@ Status constraint_broken(double relative_residual, double gap, double lever_arm,
   return Status::BlewUp;
 }
 
-PrecisionWatch::PrecisionWatch(const Model& model) : model_(model) {}
+PrecisionWatch::PrecisionWatch(const Model& model, double speed_floor) : model_(model), speed_floor_(speed_floor) {}
 
 namespace {
 
@@ -144,8 +144,9 @@ double ulp(double x) {
 
 Status PrecisionWatch::check(ConstVecRef q, ConstVecRef v, double h, long step, std::string& message) {
   if (v.size() == 0) return Status::Ok;
-  const double moving = kMoving * v.lpNorm<Eigen::Infinity>();
-  if (!(moving > 0.0)) return Status::Ok;  // at rest (or not finite: the step reports that)
+  const double fastest = v.lpNorm<Eigen::Infinity>();
+  const double moving = kMoving * fastest;
+  if (!(moving > 0.0) || fastest <= speed_floor_) return Status::Ok;  // at rest (or not finite: the step reports that)
   // The coordinate whose step keeps the fewest digits, log10(h |v_i| / ulp(q_i)).
   double fewest = std::numeric_limits<double>::infinity();
   int worst_q = -1, worst_v = -1;

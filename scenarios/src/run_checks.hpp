@@ -105,7 +105,8 @@ class PrecisionWatch {
   static constexpr double kMoving = 1e-2;
   static constexpr double kWarnDigits = 6.0;  // a step kept to fewer digits is warned about
 
-  explicit PrecisionWatch(const Model& model);
+  // speed_floor: velocities at or below it are round-off (a body at rest under a force), not motion.
+  PrecisionWatch(const Model& model, double speed_floor);
   // Before step `step` (0: the start): whether it is due.
   static bool due(long step) { return step % kEvery == 0; }
   // With the velocity v (n_v entries; empty: not checked). Ok, or PrecisionLoss with why in message.
@@ -114,6 +115,7 @@ class PrecisionWatch {
 
  private:
   const Model& model_;
+  double speed_floor_;
   std::string warning_;
 };
 

@@ -71,6 +71,12 @@ class AccuracyWatch {
   double local_max() const { return local_max_; }
   long samples() const { return samples_; }
   long failed_samples() const { return failed_; }
+  // Samples outside step doubling's asymptotic regime (velocities of the step of 2h and the two
+  // of h differing by more than 1 % of the speed, and the next sample a hundred times quieter: a
+  // transient faster than the step), counted whole; and the time of the first. Their error falls
+  // more slowly than h^p.
+  long transient_samples() const { return transients_; }
+  double first_transient() const { return first_transient_t_; }
   // "t = 1.23: gap-not-converged: ..." for the first shadow step of 2h that failed.
   const std::string& first_failure() const { return first_failure_; }
 
@@ -90,8 +96,10 @@ class AccuracyWatch {
   long interval_ = 2;      // steps between the starts of two samples, 2 ... every
   long last_end_ = -1;     // the step at which the last sample's pair ended (-1: none yet)
   double last_dq_ = 0.0, last_dv_ = 0.0, last_t_ = 0.0;  // its local errors and time
+  bool last_fast_ = false;  // its velocities differed by more than 1 % of the speed
   double t_ = 0.0, local_max_ = 0.0;
-  long samples_ = 0, failed_ = 0;
+  long samples_ = 0, failed_ = 0, transients_ = 0;
+  double first_transient_t_ = 0.0;
   const State* last_ = nullptr;  // the state after_step last saw (the caller's, which outlives the calls)
   std::string first_failure_;
 };

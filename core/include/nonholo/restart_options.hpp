@@ -6,6 +6,7 @@
 // replaces lambda~ by the continuous multiplier lambda_s(q, p~) and rescales p~ so that the
 // post-momentum energy (with f = 0; with forces, the discrete work-energy balance) is
 // unchanged, together with every momentum map of the model (restart.hpp).
+#include <algorithm>
 #include <string>
 
 namespace nonholo {
@@ -35,8 +36,16 @@ struct RestartOptions {
   // (the single sleigh) takes it from its sweep's data in one pass (under a step).
   int monitor_every = 8;
 
-  // The tolerance Auto uses at step size h.
-  double tolerance_for(double h) const { return tolerance > 0.0 ? tolerance : (h < 0.1 ? h * h * h : 1e-3); }
+  // The tolerance Auto uses at step size h. The default has a floor at the amplitude's
+  // round-off, kRoundOff: lambda~ solves (h/2) mu M^-1 mu^T lambda~ = -mu M^-1 (p + ...) to
+  // eps |p| in momentum, so (h/2)|lambda~ - lambda_s|_C / |p| carries a few eps times the
+  // condition of C whatever h is (measured at h = 1e-9: 0.26 eps on the sleigh, 4 eps on the
+  // 10-sleigh chain, 3 eps on the snakeboard). Below it h^3 asked for a restart at every step
+  // (10^4 restarts in 10^4 steps at h = 1e-9, tolerance 1e-27).
+  static constexpr double kRoundOff = 64.0 * 2.220446049250313e-16;
+  double tolerance_for(double h) const {
+    return tolerance > 0.0 ? tolerance : (h < 0.1 ? std::max(h * h * h, kRoundOff) : 1e-3);
+  }
 };
 
 // Throws std::invalid_argument naming the field and the offending value.
@@ -48,18 +57,21 @@ void set_restart(RestartOptions& options, const std::string& spec);
 std::string restart_spec(const RestartOptions& options);
 
 // A trajectory's measurement schedule (kept with its state): the step count of the next
-// measurement, and the last amplitude measured with its step count (-1 after a restart, 0
-// before any measurement). 32 bytes: the step copies it in and out (at 40 the compiler's
-// `rep movs` cost a batched single sleigh 30% of its step).
+// measurement, and the last amplitude measured with its step count (-1 after a restart, -1 - a
+// after a restart that probes a floor, below; 0 before any measurement). 32 bytes: the step
+// copies it in and out (at 40 the compiler's `rep movs` cost a batched single sleigh 30% of its
+// step).
 struct ModeWatch {
   long next_step = 1;
   long last_step = 0;
   double last_amplitude = 0.0;
-  // Auto restarts: an amplitude measured the step after a restart and already above the
-  // tolerance is what restarts cannot remove (in holonomic mode the round-off of the hitch
-  // gaps, 16 eps |q| each, summed over a long chain: 6e-6 at 10^6 bodies, h = 0.01). Auto with
-  // the default tolerance then restarts only above twice the largest such floor, rather than
-  // at nearly every step; a tolerance the user set is kept as it is.
+  // Auto restarts: an amplitude still above the tolerance the step after each of two restarts
+  // in a row is what restarts cannot remove (in holonomic mode the round-off of the hitch gaps,
+  // 16 eps |q| each, summed over a long chain: 6e-6 at 10^6 bodies, h = 0.01). Auto with the
+  // default tolerance then restarts only above twice the largest such floor, rather than at
+  // nearly every step; a tolerance the user set is kept as it is. One restart is not proof: a
+  // step can excite the mode afresh (a chain passing a configuration where its one-forms become
+  // dependent), and a second restart removes that.
   double floor = 0.0;
 };
 

@@ -86,11 +86,12 @@ class alignas(128) Workspace {
   Vector mu_values, c_values, rhs, lambda, scratch_m, scratch_nnz, scratch_nnz2;
   // ... and of size num_holonomic() (hitch gaps g(q)).
   Vector gap;
-  // Position-level iterations taken by the last step in holonomic mode, and the sum of their
-  // multiplier corrections dlambda (m; zero when the step made none). In holonomic mode
-  // lambda~ settles at lambda_s - dlambda/2 rather than lambda_s (restart.cpp).
+  // Position-level iterations taken by the last step in holonomic mode. Their corrections
+  // add (h/2) G to p_half (G = mu_k^T dlambda); lambda~_{k+1} then settles at lambda_s - x,
+  // not at lambda_s, with x = C^-1 mu M^-1 G/2 at q_{k+1} (m entries; restart_internal.hpp's
+  // gap_offset_multiplier computes it when the period-2 mode is measured or restarted).
   int gap_iterations = 0;
-  Vector gap_multiplier;
+  Vector offset_multiplier;
 
   // The period-2 mode (restart.hpp). lambda_s: the continuous multiplier lambda_s(q, p~) last
   // computed (m); lambda_f: its part due to the applied force, -C^-1 mu M^-1 f (m, only for
