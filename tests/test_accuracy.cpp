@@ -165,6 +165,25 @@ TEST(Accuracy, CorrectRunsAreNotFlagged) {
   }
 }
 
+// --error-estimate on the hostile cases: the companion's Richardson estimate alone understated
+// (0.22 for 0.49 on the inertia-1e-10 chain, 3000 for 9600 on the sleigh at 1e4); where the check
+// saw steps outside the asymptotic regime its own sum stands. Not below half the true error.
+TEST(Accuracy, TheCompanionEstimateDoesNotUnderstateTheHostileCases) {
+  struct Case {
+    std::vector<std::string> args;
+    double truth;  // max error in q against ARKODE at 1e-12
+  };
+  for (const Case& c : {Case{{"run", "sleigh_chain", "--set", "bodies=3", "--set", "a=0", "--set", "I=1e-10"}, 0.492},
+                        Case{{"run", "sleigh", "--set", "v0=1e4", "--t-end", "1"}, 9.57e3},
+                        Case{{"run", "sleigh_chain", "--set", "a=0", "--set", "I=1e-6"}, 0.012},
+                        Case{{"run", "sleigh_chain", "--set", "omega0=20"}, 2.07}}) {
+    auto args = c.args;
+    args.push_back("--error-estimate");
+    const auto kv = summary_of(run_cli(args).out);
+    EXPECT_GE(std::stod(kv.at("error_estimate")), 0.5 * c.truth) << args[1] << " " << args[3];
+  }
+}
+
 TEST(Accuracy, RefusesABadTolerance) {
   const auto r = run_cli({"run", "sleigh", "--accuracy", "-1"});
   EXPECT_EQ(r.code, 1);

@@ -107,6 +107,7 @@ void AccuracyWatch::after_step(const State& s) {
   model_.inverse_mass().multiply(s.p.data(), velocity_.data());
   const double speed = velocity_.lpNorm<Eigen::Infinity>();
   const bool fast = dv > 1e-2 * speed;
+  fast_ += fast;
   dq /= factor_;
   dv /= factor_;
   // Step doubling splits the difference as (2^(p+1) - 2) local errors only in the asymptotic

@@ -76,6 +76,9 @@ class AccuracyWatch {
   // transient faster than the step), counted whole; and the time of the first. Their error falls
   // more slowly than h^p.
   long transient_samples() const { return transients_; }
+  // Samples whose velocities differed by more than 1 % of the speed: outside step doubling's (and
+  // Richardson's) asymptotic regime, transient or not.
+  long fast_samples() const { return fast_; }
   double first_transient() const { return first_transient_t_; }
   // "t = 1.23: gap-not-converged: ..." for the first shadow step of 2h that failed.
   const std::string& first_failure() const { return first_failure_; }
@@ -98,7 +101,7 @@ class AccuracyWatch {
   double last_dq_ = 0.0, last_dv_ = 0.0, last_t_ = 0.0;  // its local errors and time
   bool last_fast_ = false;  // its velocities differed by more than 1 % of the speed
   double t_ = 0.0, local_max_ = 0.0;
-  long samples_ = 0, failed_ = 0, transients_ = 0;
+  long samples_ = 0, failed_ = 0, transients_ = 0, fast_ = 0;
   double first_transient_t_ = 0.0;
   const State* last_ = nullptr;  // the state after_step last saw (the caller's, which outlives the calls)
   std::string first_failure_;
