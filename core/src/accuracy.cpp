@@ -1,69 +1,55 @@
 // Sampled step doubling (nonholo/accuracy.hpp): one shadow step of 2h from x_k against the
-// run's two steps of h, every `every` steps.
+// run's two steps of h, at intervals of 2 to `every` steps.
 #include <nonholo/accuracy.hpp>
 
 #include <nonholo/rattle.hpp>
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 namespace nonholo {
 
 double doubling_factor(int order) { return std::ldexp(1.0, order + 1) - 2.0; }
 
-namespace {
-
-RattleOptions doubled(RattleOptions o) {
-  o.h *= 2.0;
-  return o;
-}
-
-}  // namespace
-
-AccuracyWatch::AccuracyWatch(const Model& model, const WorkspaceOptions& workspace, const RattleOptions& options,
-                             int every)
-    : model_(model),
-      ws_(model, workspace),
-      options_(doubled(options)),
-      every_(every),
-      factor_(doubling_factor(options.order)) {
+DoublingEstimate::DoublingEstimate(Eigen::Index nq, int order, int every)
+    : every_(every), factor_(doubling_factor(order)) {
   if (every < 2 || every % 2 != 0)
-    throw std::invalid_argument("AccuracyWatch: every = " + std::to_string(every) + " must be even and at least 2");
-  const Eigen::Index nq = model.num_configuration(), nv = model.num_velocities(), m = model.num_one_forms();
-  shadow_.q.setZero(nq);
-  shadow_.p.setZero(nv);
-  shadow_.lambda.setZero(m);
-  shadow_.force.setZero(nv);
-  velocity_.setZero(nv);
+    throw std::invalid_argument("accuracy check: every = " + std::to_string(every) + " must be even and at least 2");
   q_min_.setConstant(nq, std::numeric_limits<double>::infinity());
   q_max_.setConstant(nq, -std::numeric_limits<double>::infinity());
-  difference_.setZero(nv);
   first_failure_.reserve(512);  // the first failure's text is copied in a step: no allocation there
 }
 
-void AccuracyWatch::before_step(const State& s) {
-  if (pending_at_ >= 0 || step_ < next_at_) return;
-  q_min_ = q_min_.cwiseMin(s.q);
-  q_max_ = q_max_.cwiseMax(s.q);
-  shadow_ = s;  // same sizes: a copy, no allocation
-  const Status status = step(model_, ws_, shadow_, options_);
-  if (status == Status::Ok) {
-    pending_at_ = step_ + 2;
-    return;
-  }
-  next_at_ = step_ + every_;  // failed: try again later
+bool DoublingEstimate::due(ConstVecRef q) {
+  if (pending_at_ >= 0 || step_ < next_at_) return false;
+  q_min_ = q_min_.cwiseMin(q);
+  q_max_ = q_max_.cwiseMax(q);
+  return true;
+}
+
+void DoublingEstimate::failed(double t, const char* status, const char* message) {
+  next_at_ = step_ + every_;  // try again later
   // The run's step size is within a factor 2 of failing: say so once, keep the count.
   if (failed_++ == 0) {
     char text[512];
-    std::snprintf(text, sizeof text, "t = %.6g: %s: %s", s.t, to_string(status), ws_.message());
+    std::snprintf(text, sizeof text, "t = %.6g: %s: %s", t, status, message);
     first_failure_.assign(text);
   }
 }
 
-double AccuracyWatch::estimate() const {
+bool DoublingEstimate::stepped(double t, ConstVecRef q) {
+  ++step_;
+  t_ = t;
+  last_q_ = q.data();
+  if (pending_at_ != step_) return false;
+  pending_at_ = -1;
+  return true;
+}
+
+double DoublingEstimate::estimate() const {
   if (last_end_ < 0) return error_.at(t_);
   const double tail = static_cast<double>(step_ - last_end_);  // steps since the last sample
   GlobalError e = error_;
@@ -71,19 +57,21 @@ double AccuracyWatch::estimate() const {
   return e.at(t_);
 }
 
-double AccuracyWatch::extent() const {
-  if (!last_) return 0.0;
-  return (q_max_.cwiseMax(last_->q) - q_min_.cwiseMin(last_->q)).maxCoeff();
+double DoublingEstimate::extent() const {
+  if (!last_q_) return 0.0;
+  const Eigen::Map<const Vector> q(last_q_, q_min_.size());
+  return (q_max_.cwiseMax(q) - q_min_.cwiseMin(q)).maxCoeff();
 }
 
-double AccuracyWatch::largest_coordinate() const {
-  if (!last_) return 0.0;
-  return std::max(q_max_.cwiseMax(last_->q).cwiseAbs().maxCoeff(), q_min_.cwiseMin(last_->q).cwiseAbs().maxCoeff());
+double DoublingEstimate::largest_coordinate() const {
+  if (!last_q_) return 0.0;
+  const Eigen::Map<const Vector> q(last_q_, q_min_.size());
+  return std::max(q_max_.cwiseMax(q).cwiseAbs().maxCoeff(), q_min_.cwiseMin(q).cwiseAbs().maxCoeff());
 }
 
 namespace {
 
-// Do two samples' local errors agree within a factor 2? Values below the floor (round-off)
+// Do two samples' local errors agree within a factor 4? Values below the floor (round-off)
 // count as the floor.
 bool agree(double a, double b, double floor) {
   a = std::max(a, floor);
@@ -93,23 +81,14 @@ bool agree(double a, double b, double floor) {
 
 }  // namespace
 
-void AccuracyWatch::after_step(const State& s) {
-  ++step_;
-  t_ = s.t;
-  last_ = &s;
-  if (pending_at_ != step_) return;
-  pending_at_ = -1;
+void DoublingEstimate::sample(double t, double h, double dq, double dv, double speed, double q_norm) {
   ++samples_;
-  double dq = (shadow_.q - s.q).lpNorm<Eigen::Infinity>();
-  difference_ = shadow_.p - s.p;
-  model_.inverse_mass().multiply(difference_.data(), velocity_.data());
-  double dv = velocity_.lpNorm<Eigen::Infinity>();
-  model_.inverse_mass().multiply(s.p.data(), velocity_.data());
-  const double speed = velocity_.lpNorm<Eigen::Infinity>();
   const bool fast = dv > 1e-2 * speed;
   fast_ += fast;
   dq /= factor_;
   dv /= factor_;
+  if (dq > local_max_ || dq != dq) local_max_ = dq;
+  const double t_pair = t - h;  // the pair's middle
   // Step doubling splits the difference as (2^(p+1) - 2) local errors only in the asymptotic
   // regime. A pair whose velocities differ by more than 1 % of the speed, followed by one a
   // hundred times quieter, was a transient faster than the step (blades through the centres of
@@ -117,18 +96,16 @@ void AccuracyWatch::after_step(const State& s) {
   // may be. (A motion that stays that fast, omega0 = 20 on the chain, keeps the split.)
   if (last_fast_ && dv < 1e-2 * last_dv_) {
     error_.add(last_t_, 2.0, (factor_ - 1.0) * last_dq_, (factor_ - 1.0) * last_dv_);
-    if (transients_++ == 0) first_transient_t_ = last_t_ - options_.h / 2;
+    if (transients_++ == 0) first_transient_t_ = last_t_ - h;
   }
   last_fast_ = fast;
-  if (dq > local_max_ || dq != dq) local_max_ = dq;
   // The pair's own two steps, and the stretch since the previous pair at the two samples' mean.
-  const double t_pair = s.t - options_.h / 2;
   error_.add(t_pair, 2.0, dq, dv);
   if (last_end_ >= 0) {
     const double gap = static_cast<double>(step_ - 2 - last_end_);
     if (gap > 0) error_.add(0.5 * (last_t_ + t_pair), gap, 0.5 * (dq + last_dq_), 0.5 * (dv + last_dv_));
     // Round-off of the difference of two states: a few ulps of the largest coordinate, over the factor.
-    const double q_floor = 8.0 * std::numeric_limits<double>::epsilon() * s.q.lpNorm<Eigen::Infinity>() / factor_;
+    const double q_floor = 8.0 * std::numeric_limits<double>::epsilon() * q_norm / factor_;
     const double v_floor = 8.0 * std::numeric_limits<double>::epsilon() * speed / factor_;
     const bool steady = agree(dq, last_dq_, q_floor) && agree(dv, last_dv_, v_floor);
     interval_ = steady ? std::min<long>(2 * interval_, every_) : std::max<long>(2, interval_ / 4);
@@ -138,6 +115,57 @@ void AccuracyWatch::after_step(const State& s) {
   last_dv_ = dv;
   last_t_ = t_pair;
   next_at_ = step_ - 2 + interval_;
+}
+
+namespace {
+
+RattleOptions doubled(RattleOptions o) {
+  o.h *= 2.0;
+  return o;
+}
+
+// The differences of a finished pair (shadow minus run) fed to the estimate: q, and the velocity
+// M^-1 p; `velocity` and `difference` are scratch of n_v entries.
+void feed(const Model& model, DoublingEstimate& e, double t, double h, ConstVecRef q_shadow, ConstVecRef q,
+          ConstVecRef p_shadow, ConstVecRef p, Vector& velocity, Vector& difference) {
+  const double dq = (q_shadow - q).lpNorm<Eigen::Infinity>();
+  difference = p_shadow - p;
+  model.inverse_mass().multiply(difference.data(), velocity.data());
+  const double dv = velocity.lpNorm<Eigen::Infinity>();
+  model.inverse_mass().multiply(p.data(), velocity.data());
+  e.sample(t, h, dq, dv, velocity.lpNorm<Eigen::Infinity>(), q.lpNorm<Eigen::Infinity>());
+}
+
+}  // namespace
+
+AccuracyWatch::AccuracyWatch(const Model& model, const WorkspaceOptions& workspace, const RattleOptions& options,
+                             int every)
+    : model_(model),
+      ws_(model, workspace),
+      options_(doubled(options)),
+      estimate_(model.num_configuration(), options.order, every) {
+  const Eigen::Index nq = model.num_configuration(), nv = model.num_velocities(), m = model.num_one_forms();
+  shadow_.q.setZero(nq);
+  shadow_.p.setZero(nv);
+  shadow_.lambda.setZero(m);
+  shadow_.force.setZero(nv);
+  velocity_.setZero(nv);
+  difference_.setZero(nv);
+}
+
+void AccuracyWatch::before_step(const State& s) {
+  if (!estimate_.due(s.q)) return;
+  shadow_ = s;  // same sizes: a copy, no allocation
+  const Status status = step(model_, ws_, shadow_, options_);
+  if (status == Status::Ok)
+    estimate_.started();
+  else
+    estimate_.failed(s.t, to_string(status), ws_.message());
+}
+
+void AccuracyWatch::after_step(const State& s) {
+  if (estimate_.stepped(s.t, s.q))
+    feed(model_, estimate_, s.t, options_.h / 2, shadow_.q, s.q, shadow_.p, s.p, velocity_, difference_);
 }
 
 }  // namespace nonholo

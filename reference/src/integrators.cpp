@@ -151,6 +151,23 @@ Status Integrator::rk4_step(double h) {
   return Status::Ok;
 }
 
+Status Integrator::rk4_trial(double h, Vector& y_out) {
+  const BusyEntry entry(busy_);
+  if (!entry.held()) return Status::WorkspaceBusy;
+  if (method_ != Method::Rk4) return Status::MethodNotApplicable;
+  y_out = y_;
+  y_.swap(y_out);  // rk4_step works on y_: step the copy in its place, then put both back
+  const double t = t_;
+  const long steps = steps_, rhs = rhs_;
+  const Status s = rk4_step(h);
+  y_.swap(y_out);
+  t_ = t;
+  steps_ = steps;
+  trial_rhs_ += rhs_ - rhs;
+  rhs_ = rhs;
+  return s;
+}
+
 Status Integrator::advance_to(double t) {
   const BusyEntry entry(busy_);
   if (!entry.held()) return Status::WorkspaceBusy;

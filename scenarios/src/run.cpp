@@ -147,7 +147,8 @@ constexpr int kAccuracyEvery = 64;
 // The accuracy check's verdict on a run that ended ok: status=inaccurate when the estimated error
 // exceeds the tolerance, a fraction of the motion's extent. The advice: the step that would meet
 // the tolerance if the error falls as dt^p, with a factor 2 to spare.
-void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, const AccuracyWatch& watch) {
+void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, const DoublingEstimate& watch,
+                    bool has_orders) {
   const double largest_coordinate = watch.largest_coordinate();
   if (summary.status != Status::Ok || !(config.accuracy > 0.0) || std::isnan(summary.extent)) return;
   summary.accuracy = config.accuracy;
@@ -174,7 +175,7 @@ void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, con
        << order << "; reduce --dt tenfold or more and compare error_estimate";
   else if (std::isfinite(suggested) && suggested > 0.0)
     os << "the step is too large for this motion; use --dt " << suggested << " or smaller (an order-" << order
-       << " method's error falls as dt^" << order << "), or a higher --order";
+       << " method's error falls as dt^" << order << ")" << (has_orders ? ", or a higher --order" : "");
   else
     os << "the step is too large for this motion: reduce --dt";
   os << ". The results are written; --accuracy 0 turns the check off";
@@ -567,7 +568,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     for (const std::string& w : {stability.warning(), precision.warning()})
       if (!w.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + w;
   }
-  if (const AccuracyWatch* w = summary.steps > 0 ? runner->accuracy() : nullptr) {  // no step: nothing to judge
+  if (const DoublingEstimate* w = summary.steps > 0 ? runner->accuracy() : nullptr) {  // no step: nothing to judge
     summary.error_estimate = w->estimate();
     summary.extent = w->extent();
     if (w->failed_samples() > 0 && summary.status == Status::Ok)  // a failed run says it all
@@ -585,7 +586,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     // Richardson's factor assumes the asymptotic regime; where the accuracy check saw steps outside
     // it (a step of 2 dt and two of dt differing by more than 1 % of the speed), the companion
     // understates (the inertia-1e-10 chain: 0.22 for 0.49), and the check's own sum stands.
-    const AccuracyWatch* w = runner->accuracy();
+    const DoublingEstimate* w = runner->accuracy();
     if (w && w->fast_samples() > 0 && in_run > summary.error_estimate) summary.error_estimate = in_run;
   }
   if (csv) csv->close();
@@ -608,7 +609,10 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
                        " intervals): --dt, its output interval, probably capped its step; a larger --dt lets "
                        "its error control choose longer steps (fewer evaluations at the same tolerance)";
   if (!companion_failure.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + companion_failure;
-  if (runner->accuracy() && summary.steps > 0) judge_accuracy(summary, config, reflection ? choice.rattle.order : 2, *runner->accuracy());  // after the warnings it may add to
+  if (runner->accuracy() && summary.steps > 0)
+    judge_accuracy(summary, config, reflection ? choice.rattle.order : config.method == "rk4" ? 4
+                                                                    : config.method == "dla-left" ? 1 : 2,
+                   *runner->accuracy(), reflection);  // after the warnings it may add to
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   if (final_q) *final_q = runner->q();

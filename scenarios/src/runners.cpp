@@ -42,7 +42,7 @@ class ReflectionRunner final : public Runner {
     if (status == Status::Ok) watch_->after_step(state_);
     return status;
   }
-  const AccuracyWatch* accuracy() const override { return watch_.get(); }
+  const DoublingEstimate* accuracy() const override { return watch_ ? &watch_->estimate() : nullptr; }
   double t() const override { return state_.t; }
   ConstVecRef q() const override { return state_.q; }
   // Composed steps restart lambda~ at their end: the post-momentum of a composed step is not
@@ -224,8 +224,35 @@ class ReferenceRunner final : public Runner {
         method_(method),
         integrator_(setup.model, method, with_backend(c), setup.t0, setup.q0,
                     started_velocity(setup, c.backend, phase)),
-        p_(setup.model.num_coordinates()) {}
-  Status advance(double t_next) override { return integrator_.advance_to(t_next); }
+        p_(setup.model.num_coordinates()) {
+    // RK4 (fixed steps of --dt, one per output interval): the accuracy check's shadow is one
+    // RK4 step of 2 dt from the same state. ARKODE controls its own local error: no check.
+    if (method == reference::Method::Rk4 && c.accuracy_every > 0) {
+      estimate_ = std::make_unique<DoublingEstimate>(setup.model.num_configuration(), 4, c.accuracy_every);
+      shadow_.setZero(setup.model.num_configuration() + setup.model.num_velocities());
+    }
+  }
+  Status advance(double t_next) override {
+    if (!estimate_) return integrator_.advance_to(t_next);
+    const Eigen::Index nq = model_.num_configuration(), nv = model_.num_velocities();
+    const double h = t_next - integrator_.t();
+    if (estimate_->due(solver_q())) {
+      const Status s = integrator_.rk4_trial(2.0 * h, shadow_);
+      if (s == Status::Ok)
+        estimate_->started();
+      else
+        estimate_->failed(integrator_.t(), to_string(s), integrator_.ode().workspace().message());
+    }
+    const Status status = integrator_.advance_to(t_next);
+    if (status == Status::Ok && estimate_->stepped(integrator_.t(), solver_q())) {
+      const Eigen::Map<const Vector> y(integrator_.y(), nq + nv);
+      estimate_->sample(integrator_.t(), h, (shadow_.head(nq) - y.head(nq)).lpNorm<Eigen::Infinity>(),
+                        (shadow_.tail(nv) - y.tail(nv)).lpNorm<Eigen::Infinity>(),
+                        y.tail(nv).lpNorm<Eigen::Infinity>(), y.head(nq).lpNorm<Eigen::Infinity>());
+    }
+    return status;
+  }
+  const DoublingEstimate* accuracy() const override { return estimate_.get(); }
   double t() const override { return integrator_.t(); }
   ConstVecRef q() const override { return integrator_.q(); }
   Diagnostics diagnostics() override {
@@ -259,13 +286,20 @@ class ReferenceRunner final : public Runner {
   }
   long rhs_evaluations() const override { return integrator_.rhs_evaluations(); }
   long internal_steps() const override { return method_ == reference::Method::Rk4 ? -1 : integrator_.steps(); }
-  long factorizations() const override { return integrator_.ode().workspace().factorizations; }
+  // Without the accuracy check's shadow steps (one evaluation, one factorisation each).
+  long factorizations() const override {
+    return integrator_.ode().workspace().factorizations - integrator_.trial_evaluations();
+  }
 
  private:
+  // The solver's own configuration (quaternions as integrated), in place in its state.
+  ConstVecRef solver_q() const { return Eigen::Map<const Vector>(integrator_.y(), model_.num_configuration()); }
   const Model& model_;
   reference::Method method_;
   reference::Integrator integrator_;
   Vector p_;
+  std::unique_ptr<DoublingEstimate> estimate_;
+  Vector shadow_;  // the shadow step's y
 };
 
 }  // namespace

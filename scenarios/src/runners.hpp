@@ -54,7 +54,7 @@ class Runner {
   virtual Workspace* workspace() { return nullptr; }
   // The in-run accuracy check (nonholo/accuracy.hpp): the estimated global error in q so far,
   // NaN for a method without one or with the check off; and the watch itself, when there is one.
-  virtual const AccuracyWatch* accuracy() const { return nullptr; }
+  virtual const DoublingEstimate* accuracy() const { return nullptr; }
 };
 
 struct MethodChoice {

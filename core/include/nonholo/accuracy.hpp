@@ -40,28 +40,35 @@ class GlobalError {
 // (2^(p+1) - 2): the step-doubling difference of a method of order p in units of its local error.
 double doubling_factor(int order);
 
-// The sampled step doubling of the reflection step (orders 2, 4, 6; a composed step counts as
-// one step of H). Owns a second Workspace and State, sized once: no allocation after the
-// constructor. The shadow never changes the run's state or workspace.
-class AccuracyWatch {
+// The method-independent part of the check: when to sample, how a sample's differences become
+// local errors, and their sum; the extent of the motion. A method's watch (AccuracyWatch for the
+// reflection step; the RK4 runner's, with reference::Integrator::rk4_trial) takes the shadow steps
+// and feeds it.
+//
+// every: the most steps between the starts of two samples (even, at least 2). Sampling starts
+// dense (a pair every 2 steps) and spreads out, doubling the interval up to `every` while
+// consecutive samples agree within a factor 4, and quartering it when they do not (a transient,
+// the start's): a stretch between two samples is counted with their mean. A sample costs about
+// one step of 2h and a factorisation: about 2/every of the run once spread out.
+class DoublingEstimate {
  public:
-  // every: the most steps between the starts of two samples (even, at least 2). Sampling starts
-  // dense (a pair every 2 steps) and spreads out, doubling the interval up to `every` while
-  // consecutive samples agree within a factor 2, back to dense when they do not (a transient,
-  // the start's): a stretch between two samples is counted with their mean. A sample costs
-  // about one step and one factorisation: about 2/every of the run once spread out.
-  AccuracyWatch(const Model& model, const WorkspaceOptions& workspace, const RattleOptions& options, int every);
-  AccuracyWatch(const Model&& model, const WorkspaceOptions&, const RattleOptions&, int) = delete;
+  DoublingEstimate(Eigen::Index nq, int order, int every);
 
-  // Call before each step of the run, with the state it starts from, and after it with the new
-  // state. Never throws; a shadow step that fails is counted (failed_samples(), first_failure()).
-  void before_step(const State& s);
-  void after_step(const State& s);
+  // Before the run's step from configuration q: whether the shadow's step of 2h should start now
+  // (then call started() or failed()).
+  bool due(ConstVecRef q);
+  void started() { pending_at_ = step_ + 2; }
+  void failed(double t, const char* status, const char* message);
+  // After the run's step to (t, q): whether it ends a pair (then call sample()). q must stay
+  // alive and in place until the next call (the run's own state).
+  bool stepped(double t, ConstVecRef q);
+  // The pair's differences, shadow minus run, in q and in the velocity (max norms), the run's
+  // speed |v|_inf and largest |q_i|, at the pair's end t with the run's step h.
+  void sample(double t, double h, double dq, double dv, double speed, double q_norm);
 
   // The global error estimate in q at the last step's time (max norm, the units of q); the steps
   // since the last sample are counted at its rate.
   double estimate() const;
-
   // The scale the estimate is judged against: the widest range any coordinate of q has swept
   // (max - min over the samples' states and the last state), the extent of the motion in the
   // units of q; and the largest |q_i| seen, for the round-off floor of a motion with no extent.
@@ -76,35 +83,58 @@ class AccuracyWatch {
   // transient faster than the step), counted whole; and the time of the first. Their error falls
   // more slowly than h^p.
   long transient_samples() const { return transients_; }
+  double first_transient() const { return first_transient_t_; }
   // Samples whose velocities differed by more than 1 % of the speed: outside step doubling's (and
   // Richardson's) asymptotic regime, transient or not.
   long fast_samples() const { return fast_; }
-  double first_transient() const { return first_transient_t_; }
   // "t = 1.23: gap-not-converged: ..." for the first shadow step of 2h that failed.
   const std::string& first_failure() const { return first_failure_; }
 
  private:
-  const Model& model_;
-  Workspace ws_;
-  RattleOptions options_;  // h doubled
   int every_;
   double factor_;
-  State shadow_;
-  Vector velocity_, difference_;
   Vector q_min_, q_max_;  // the range each coordinate has swept, at the samples
   GlobalError error_;
-  long step_ = 0;          // steps of the run seen so far
-  long pending_at_ = -1;   // the run's step count when the shadow's pair ends (-1: none)
-  long next_at_ = 0;       // the step at which the next sample starts
-  long interval_ = 2;      // steps between the starts of two samples, 2 ... every
-  long last_end_ = -1;     // the step at which the last sample's pair ended (-1: none yet)
+  long step_ = 0;         // steps of the run seen so far
+  long pending_at_ = -1;  // the run's step count when the shadow's pair ends (-1: none)
+  long next_at_ = 0;      // the step at which the next sample starts
+  long interval_ = 2;     // steps between the starts of two samples, 2 ... every
+  long last_end_ = -1;    // the step at which the last sample's pair ended (-1: none yet)
   double last_dq_ = 0.0, last_dv_ = 0.0, last_t_ = 0.0;  // its local errors and time
   bool last_fast_ = false;  // its velocities differed by more than 1 % of the speed
   double t_ = 0.0, local_max_ = 0.0;
   long samples_ = 0, failed_ = 0, transients_ = 0, fast_ = 0;
   double first_transient_t_ = 0.0;
-  const State* last_ = nullptr;  // the state after_step last saw (the caller's, which outlives the calls)
+  const double* last_q_ = nullptr;  // the configuration stepped() last saw
   std::string first_failure_;
 };
+
+// The sampled step doubling of the reflection step (orders 2, 4, 6; a composed step counts as
+// one step of H). Owns a second Workspace and State, sized once: no allocation after the
+// constructor. The shadow never changes the run's state or workspace.
+class AccuracyWatch {
+ public:
+  AccuracyWatch(const Model& model, const WorkspaceOptions& workspace, const RattleOptions& options, int every);
+  AccuracyWatch(const Model&& model, const WorkspaceOptions&, const RattleOptions&, int) = delete;
+
+  // Call before each step of the run, with the state it starts from, and after it with the new
+  // state. Never throws; a shadow step that fails is counted (failed_samples(), first_failure()).
+  void before_step(const State& s);
+  void after_step(const State& s);
+
+  const DoublingEstimate& estimate() const { return estimate_; }
+
+ private:
+  const Model& model_;
+  Workspace ws_;
+  RattleOptions options_;  // h doubled
+  State shadow_;
+  Vector velocity_, difference_;
+  DoublingEstimate estimate_;
+};
+
+// (No watch for the DLA baselines: their state (q_k, p_{k-1/2}) is staggered by half a step, so
+// a step of 2h from it is not the method at 2h: its difference measured the stagger, 2.4 on the
+// sleigh where the error is 7e-5.)
 
 }  // namespace nonholo

@@ -42,6 +42,12 @@ class Integrator {
   // Status::WorkspaceBusy (busy_flag.hpp).
   Status advance_to(double t);
 
+  // RK4 only: one step of size h from the current state into y_out (sized like y()), the state
+  // unchanged: the accuracy check's shadow step. Its evaluations are not counted in
+  // rhs_evaluations() but in trial_evaluations() (the workspace's factorisations count them).
+  Status rk4_trial(double h, Vector& y_out);
+  long trial_evaluations() const { return trial_rhs_; }
+
   double t() const { return t_; }
   // The configuration (rigid bodies' quaternions normalised; the solver's own state y() keeps
   // them as integrated) and the velocity.
@@ -65,7 +71,7 @@ class Integrator {
   double t_;
   Vector y_, k1_, k2_, k3_, k4_, tmp_;
   mutable Vector q_unit_;  // q() with unit quaternions (models with rigid bodies)
-  long steps_ = 0, rhs_ = 0;
+  long steps_ = 0, rhs_ = 0, trial_rhs_ = 0;
   std::string message_;
   std::unique_ptr<Arkode> arkode_;
   BusyFlag busy_;
