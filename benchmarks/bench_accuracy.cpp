@@ -34,7 +34,7 @@ void run(benchmark::State& bench, const std::string& scene, const std::vector<st
     if (watch) watch->after_step(s);
     benchmark::DoNotOptimize(s.q.data());
   }
-  if (watch) bench.counters["samples_per_step"] = static_cast<double>(watch->estimate().samples()) / bench.iterations();
+  if (watch) bench.counters["samples_per_step"] = static_cast<double>(watch->estimate().samples()) / static_cast<double>(bench.iterations());
 }
 
 void Accuracy_Sleigh_Off(benchmark::State& s) { run(s, "sleigh", {}, false); }

@@ -440,9 +440,9 @@ TEST(AutoRestart, AFloorAfterTwoRestartsRaisesOnlyTheDefaultTolerance) {
   RestartOptions user;
   user.tolerance = tol;
   ModeWatch v;
-  for (long now = 10; now < 13; ++now) {  // each restart followed by the same amplitude: no floor
-    plan_after_restart(user, v, now);
-    EXPECT_TRUE(plan_after_measurement(user, h, v, now + 1, 3 * tol));
+  for (long k = 10; k < 13; ++k) {  // each restart followed by the same amplitude: no floor
+    plan_after_restart(user, v, k);
+    EXPECT_TRUE(plan_after_measurement(user, h, v, k + 1, 3 * tol));
   }
   EXPECT_EQ(v.floor, 0.0);
 }

@@ -44,7 +44,7 @@ TEST(StructuralRank, MatchesTheRankOfRandomValues) {
     Pattern p;
     p.cols = 1 + static_cast<int>(rng() % 10);
     const int rows = 1 + static_cast<int>(rng() % 12);
-    const double density = 0.1 + 0.4 * (rng() % 100) / 100.0;
+    const double density = 0.1 + 0.4 * static_cast<double>(rng() % 100) / 100.0;
     for (int r = 0; r < rows; ++r) {
       std::vector<int> columns;
       for (int c = 0; c < p.cols; ++c)

@@ -23,11 +23,9 @@ DoublingEstimate::DoublingEstimate(Eigen::Index nq, int order, int every)
   first_failure_.reserve(512);  // the first failure's text is copied in a step: no allocation there
 }
 
-bool DoublingEstimate::due(ConstVecRef q) {
-  if (pending_at_ >= 0 || step_ < next_at_) return false;
+void DoublingEstimate::include(ConstVecRef q) {
   q_min_ = q_min_.cwiseMin(q);
   q_max_ = q_max_.cwiseMax(q);
-  return true;
 }
 
 void DoublingEstimate::failed(double t, const char* status, const char* message) {
@@ -38,15 +36,6 @@ void DoublingEstimate::failed(double t, const char* status, const char* message)
     std::snprintf(text, sizeof text, "t = %.6g: %s: %s", t, status, message);
     first_failure_.assign(text);
   }
-}
-
-bool DoublingEstimate::stepped(double t, ConstVecRef q) {
-  ++step_;
-  t_ = t;
-  last_q_ = q.data();
-  if (pending_at_ != step_) return false;
-  pending_at_ = -1;
-  return true;
 }
 
 double DoublingEstimate::estimate() const {
@@ -153,8 +142,8 @@ AccuracyWatch::AccuracyWatch(const Model& model, const WorkspaceOptions& workspa
   difference_.setZero(nv);
 }
 
-void AccuracyWatch::before_step(const State& s) {
-  if (!estimate_.due(s.q)) return;
+void AccuracyWatch::start_shadow(const State& s) {
+  estimate_.include(s.q);
   shadow_ = s;  // same sizes: a copy, no allocation
   const Status status = step(model_, ws_, shadow_, options_);
   if (status == Status::Ok)
@@ -163,9 +152,8 @@ void AccuracyWatch::before_step(const State& s) {
     estimate_.failed(s.t, to_string(status), ws_.message());
 }
 
-void AccuracyWatch::after_step(const State& s) {
-  if (estimate_.stepped(s.t, s.q))
-    feed(model_, estimate_, s.t, options_.h / 2, shadow_.q, s.q, shadow_.p, s.p, velocity_, difference_);
+void AccuracyWatch::finish_shadow(const State& s) {
+  feed(model_, estimate_, s.t, options_.h / 2, shadow_.q, s.q, shadow_.p, s.p, velocity_, difference_);
 }
 
 }  // namespace nonholo

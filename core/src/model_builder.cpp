@@ -788,7 +788,7 @@ ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap ma
   if (!map) fail("momentum_map '" + name + "': the function is empty");
   for (const auto& existing : draft_.momentum_maps_)
     if (existing.name == name) fail("momentum_map '" + name + "' is defined twice");
-  draft_.momentum_maps_.push_back({name, std::move(map)});
+  draft_.momentum_maps_.push_back({name, std::move(map), {}});
   return *this;
 }
 

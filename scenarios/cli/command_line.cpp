@@ -27,13 +27,6 @@ constexpr const char* kCommands = "run, batch, list, wp";
 constexpr const char* kRunHelp = "integrate one scene and print a summary line";
 constexpr const char* kBatchHelp = "integrate many trajectories of one scene in parallel";
 
-std::string format(double x) {
-  std::ostringstream os;
-  os.precision(3);
-  os << x;
-  return os.str();
-}
-
 // The options `run` and `batch` share, with their raw strings for the enums.
 struct RunOptions {
   RunConfig config;

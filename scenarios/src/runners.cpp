@@ -236,7 +236,8 @@ class ReferenceRunner final : public Runner {
     if (!estimate_) return integrator_.advance_to(t_next);
     const Eigen::Index nq = model_.num_configuration(), nv = model_.num_velocities();
     const double h = t_next - integrator_.t();
-    if (estimate_->due(solver_q())) {
+    if (estimate_->due()) {
+      estimate_->include(solver_q());
       const Status s = integrator_.rk4_trial(2.0 * h, shadow_);
       if (s == Status::Ok)
         estimate_->started();

@@ -54,14 +54,22 @@ class DoublingEstimate {
  public:
   DoublingEstimate(Eigen::Index nq, int order, int every);
 
-  // Before the run's step from configuration q: whether the shadow's step of 2h should start now
-  // (then call started() or failed()).
-  bool due(ConstVecRef q);
+  // Before the run's step: whether the shadow's step of 2h should start now (then call
+  // include() with the configuration, and started() or failed()). Inline: it runs every step.
+  bool due() const { return pending_at_ < 0 && step_ >= next_at_; }
+  void include(ConstVecRef q);  // into the extent
   void started() { pending_at_ = step_ + 2; }
   void failed(double t, const char* status, const char* message);
   // After the run's step to (t, q): whether it ends a pair (then call sample()). q must stay
   // alive and in place until the next call (the run's own state).
-  bool stepped(double t, ConstVecRef q);
+  bool stepped(double t, ConstVecRef q) {
+    ++step_;
+    t_ = t;
+    last_q_ = q.data();
+    if (pending_at_ != step_) return false;
+    pending_at_ = -1;
+    return true;
+  }
   // The pair's differences, shadow minus run, in q and in the velocity (max norms), the run's
   // speed |v|_inf and largest |q_i|, at the pair's end t with the run's step h.
   void sample(double t, double h, double dq, double dv, double speed, double q_norm);
@@ -119,12 +127,18 @@ class AccuracyWatch {
 
   // Call before each step of the run, with the state it starts from, and after it with the new
   // state. Never throws; a shadow step that fails is counted (failed_samples(), first_failure()).
-  void before_step(const State& s);
-  void after_step(const State& s);
+  void before_step(const State& s) {
+    if (estimate_.due()) start_shadow(s);
+  }
+  void after_step(const State& s) {
+    if (estimate_.stepped(s.t, s.q)) finish_shadow(s);
+  }
 
   const DoublingEstimate& estimate() const { return estimate_; }
 
  private:
+  void start_shadow(const State& s);
+  void finish_shadow(const State& s);
   const Model& model_;
   Workspace ws_;
   RattleOptions options_;  // h doubled
