@@ -307,24 +307,27 @@ TEST(CommandLine, FailureMessagesSayWhatWouldFixThem) {
   EXPECT_EQ(run({"run", "sleigh_chain", "--set", "omega0=20", "--dt", dt}).code, 0) << dt;
 }
 
-// --order 4 and 6: the summary names the order and the composition, counts factorisations
-// (2 s per composed step, plus the start), drops the post-momentum energy (not defined for a
+// --order 4, 6 and 8: the summary names the order and the composition, counts factorisations
+// (one per plain step, plus the start), drops the post-momentum energy (not defined for a
 // composed step) and, with forces, balances the energy against the work by Gregory's rule (no
 // discrete identity); the energy of p~ is exact without forces. Wrong combinations are refused
 // with the option's name.
-TEST(CommandLine, OrdersFourAndSixAreReportedAndChecked) {
+TEST(CommandLine, HigherOrdersAreReportedAndChecked) {
   Result r = run({"run", "sleigh", "--order", "6", "--dt", "0.1", "--t-end", "10"});
   ASSERT_EQ(r.code, 0) << r.err;
   auto kv = parse_summary(r.out);
   EXPECT_EQ(kv.at("order"), "6");
-  EXPECT_EQ(kv.at("composition"), "kahan-li9");
-  EXPECT_EQ(kv.at("factorizations"), std::to_string(100 * 18 + 1));
+  EXPECT_EQ(kv.at("composition"), "blanes-moan6");
+  EXPECT_EQ(kv.at("factorizations"), std::to_string(100 * 20 + 1));
   EXPECT_EQ(kv.at("restarts"), "100");
   EXPECT_EQ(kv.at("energy_post_rel_err_max"), "nan");
   EXPECT_LE(std::stod(kv.at("energy_rel_err_max")), 1e-14);
   kv = parse_summary(run({"run", "sleigh", "--order", "4", "--composition", "triple-jump", "--t-end", "1"}).out);
   EXPECT_EQ(kv.at("composition"), "triple-jump");
   EXPECT_EQ(kv.at("factorizations"), std::to_string(100 * 6 + 1));
+  kv = parse_summary(run({"run", "sleigh", "--order", "8", "--t-end", "1"}).out);
+  EXPECT_EQ(kv.at("composition"), "kahan-li17");
+  EXPECT_EQ(kv.at("factorizations"), std::to_string(100 * 34 + 1));
   kv = parse_summary(run({"run", "sleigh", "--t-end", "1"}).out);
   EXPECT_EQ(kv.at("order"), "2");
   EXPECT_EQ(kv.count("composition"), 0u);
@@ -345,7 +348,7 @@ TEST(CommandLine, OrdersFourAndSixAreReportedAndChecked) {
   ASSERT_EQ(r.code, 0) << r.err;
   kv = parse_summary(r.out);
   EXPECT_EQ(kv.at("order"), "4");
-  EXPECT_EQ(kv.at("factorizations"), std::to_string(3 * (100 * 10 + 1)));
+  EXPECT_EQ(kv.at("factorizations"), std::to_string(3 * (100 * 12 + 1)));
   EXPECT_LT(std::stod(kv.at("error_estimate")), 1e-9);
   std::ifstream in(path);
   std::string header;
@@ -353,7 +356,7 @@ TEST(CommandLine, OrdersFourAndSixAreReportedAndChecked) {
   EXPECT_THAT(header, HasSubstr(",error_estimate,status"));
   std::remove(path.c_str());
 
-  expect_failure({"run", "sleigh", "--order", "3"}, "--order/--composition: order = 3 must be 2, 4 or 6");
+  expect_failure({"run", "sleigh", "--order", "3"}, "--order/--composition: order = 3 must be 2, 4, 6 or 8");
   expect_failure({"run", "sleigh", "--order", "4", "--composition", "yoshida7"}, "yoshida7 is not of order 4");
   expect_failure({"run", "sleigh", "--composition", "rk"}, "unknown composition 'rk'");
   expect_failure({"run", "sleigh", "--method", "rk4", "--order", "4"}, "--order applies to the reflection method only");

@@ -145,7 +145,7 @@ TEST(RigidAccuracy, OrdersOnTheBallChain) {
   expect_orders("ball_chain", {"I1=0.3", "I3=0.5"}, 5.0, 0.02, 0.1, 0.2, HitchMode::Holonomic);
 }
 
-TEST(RigidAccuracy, OrdersOnTheRollingDisk) { expect_orders("rolling_disk", {}, 1.0, 1.0 / 256, 1.0 / 64, 1.0 / 32); }
+TEST(RigidAccuracy, OrdersOnTheRollingDisk) { expect_orders("rolling_disk", {}, 1.0, 1.0 / 256, 1.0 / 64, 1.0 / 64); }
 
 // The plain method (restart 0) on the Suslov top: the period-2 mode grows at the rate the flow
 // contracts and bursts, throwing the body onto the wrong steady rotation while E_post stays

@@ -58,6 +58,12 @@ RotationLagrangian rotation_from_string(const std::string& name) {
 
 namespace detail {
 
+// Built once, on the first mismatch (OptionProblem holds a const char*).
+const char* composition_mismatch() {
+  static const std::string text = "does not match the composition (" + composition_choices() + ")";
+  return text.c_str();
+}
+
 OptionProblem rattle_problem(const RattleOptions& o) {
   if (OptionProblem p = step_size_problem(o.h)) return p;
   if (OptionProblem p = pivot_ratio_problem(o.min_pivot_ratio)) return p;
@@ -68,10 +74,10 @@ OptionProblem rattle_problem(const RattleOptions& o) {
   if (o.max_gap_iterations < 1)
     return {"max_gap_iterations", static_cast<double>(o.max_gap_iterations), "must be at least 1"};
   if (OptionProblem p = restart_problem(o.restart)) return p;
-  if (o.order != 2 && o.order != 4 && o.order != 6) return {"order", static_cast<double>(o.order), "must be 2, 4 or 6"};
+  if (o.order != 2 && o.order != 4 && o.order != 6 && o.order != 8)
+    return {"order", static_cast<double>(o.order), "must be 2, 4, 6 or 8"};
   if (CompositionScheme scheme; !find_composition(o.order, o.composition, scheme))
-    return {"order", static_cast<double>(o.order),
-            "does not match the composition (order 4: triple-jump, suzuki5; order 6: yoshida7, kahan-li9)"};
+    return {"order", static_cast<double>(o.order), composition_mismatch()};
   return {};
 }
 

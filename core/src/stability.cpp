@@ -93,9 +93,9 @@ double stability_limit(double omega, int order, Composition composition) {
   if (!(omega > 0.0)) return std::numeric_limits<double>::infinity();
   if (order == 2) return 2.0 / omega;
   const CompositionScheme scheme = composition_scheme(order, composition);
-  double widest = 0.0;
-  for (int i = 0; i < scheme.stages; ++i) widest = std::max(widest, std::abs(scheme.gamma[i]));
-  return 4.0 / (omega * widest);
+  double widest = 0.0;  // the largest plain step, |c_i| H, must stay below 2 / omega
+  for (int i = 0; i < scheme.steps; ++i) widest = std::max(widest, std::abs(scheme.c[i]));
+  return 2.0 / (omega * widest);
 }
 
 }  // namespace nonholo

@@ -174,7 +174,8 @@ All but h are keyword arguments. Invalid values raise ValueError with the librar
 in the constructor and on assignment to an attribute (an assignment is checked together with
 the other fields, so set `order` before a `composition` of that order). hitch is 'holonomic'
 or 'oneform'; restart is 'auto', '0' (never) or a number of steps K; composition is 'auto',
-'triple-jump', 'suzuki5' (order 4), 'yoshida7' or 'kahan-li9' (order 6); rotation (models with 3-D
+'triple-jump', 'suzuki5', 'blanes-moan4' (order 4), 'yoshida7', 'kahan-li9', 'blanes-moan6'
+(order 6), 'mclachlan15' or 'kahan-li17' (order 8); rotation (models with 3-D
 rigid bodies: the rotation's discrete Lagrangian) is 'moser-veselov', 'moser-veselov-f' or
 'exponential'.)");
   c.def(py::init([](double h, double min_pivot_ratio, const std::string& hitch, double gap_tolerance,

@@ -62,10 +62,9 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
   cmd->add_option("--monitor-every", o.config.monitor_every,
                   "measure the parasitic amplitude every K steps (default 8; 0: never, not with auto)");
   cmd->add_option("--order", o.config.order,
-                  "reflection: 2 (default), or 4 and 6 by composing double steps; --dt is then the "
-                  "composed step (2 s plain steps: 10 for order 4, 18 for order 6)");
-  cmd->add_option("--composition", o.config.composition,
-                  "--order 4: suzuki5 (auto) or triple-jump; --order 6: kahan-li9 (auto) or yoshida7");
+                  "reflection: 2 (default), or 4, 6 and 8 by composing plain steps; --dt is then the "
+                  "composed step (12 plain steps for order 4, 20 for order 6, 34 for order 8)");
+  cmd->add_option("--composition", o.config.composition, composition_choices());
   cmd->add_option("--rotation", o.config.rotation,
                   "reflection, scenes with 3-D rigid bodies: the rotation's discrete Lagrangian, "
                   "moser-veselov (default: exact energy for any inertia), moser-veselov-f (smaller error) "

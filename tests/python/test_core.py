@@ -169,7 +169,7 @@ def test_status_and_options():
     (dict(h=-1.0), "step size h = -1 must be positive and finite"),
     (dict(hitch="rigid"), "rigid"),
     (dict(restart="often"), "restart 'often': expected auto, 0 (never) or a number of steps K"),
-    (dict(order=5), "order = 5 must be 2, 4 or 6"),
+    (dict(order=5), "order = 5 must be 2, 4, 6 or 8"),
     (dict(order=4, composition="yoshida7"), "yoshida7"),
     (dict(gap_tolerance=0.0), "gap_tolerance = 0 must be positive and finite"),
     (dict(restart="auto", monitor_every=0), "monitor_every = 0 must be at least 1 with RestartMode::Auto"),

@@ -1,35 +1,58 @@
 #pragma once
-// Orders 4 and 6 by composition (DESIGN.md section 9, README "Higher order"). The plain step
-// Phi_h is not near the identity in lambda~ (the period-2 mode), so composing it directly
-// stalls at order 4; the double step Psi_H = Phi_{H/2} o Phi_{H/2} is symmetric and near the
-// identity, and Psi_{gamma_1 H} o ... o Psi_{gamma_s H} reaches the composition's order.
+// Orders 4, 6 and 8 by composition (README "Higher order"). The plain step Phi_h = R o phi_h is
+// an involution R of lambda~ after a map phi_h near the identity; Phi is symmetric, so
+// R phi_h R = phi*_h and two plain steps of sizes h1, h2 are phi*_h2 o phi_h1. An even,
+// palindromic sequence of plain steps of sizes c_1 H, ..., c_2s H is therefore a composition of
+// a first-order map and its adjoint, and the order conditions of composition and splitting
+// methods apply (Hairer, Lubich and Wanner, Geometric Numerical Integration, II.5 and V.3).
+// The classical tables compose the symmetric double step Psi_{gamma H} = Phi_{gamma H/2} o
+// Phi_{gamma H/2}: their plain steps are c = (gamma_1/2, gamma_1/2, gamma_2/2, ...).
+// lambda~ is carried from one plain step to the next; the period-2 mode's measurement, the
+// energy projection and the restart happen at the composed step's end only.
 // RattleOptions::order (and ::composition) select it; step() then advances by H = options.h.
 #include <string>
 
 namespace nonholo {
 
-//   Auto        the default for the order: none for 2, Suzuki5 for 4, KahanLi9 for 6;
-//   TripleJump  order 4, 3 stages (Yoshida's triple jump; one coefficient is -1.70);
-//   Suzuki5     order 4, 5 stages (Suzuki's fractal; smaller error constant than TripleJump);
-//   Yoshida7    order 6, 7 stages (Yoshida's solution A);
-//   KahanLi9    order 6, 9 stages (Kahan and Li's s9odr6a; measured more accurate per
-//               factorisation than Yoshida7, README "Higher order").
-enum class Composition { Auto, TripleJump, Suzuki5, Yoshida7, KahanLi9 };
+//   Auto         the default for the order: none for 2, BlanesMoan4 for 4, BlanesMoan6 for 6,
+//                KahanLi17 for 8 (README "Higher order": each measured the most accurate per
+//                factorisation of its order on the sleigh and the 10-body chain);
+//   TripleJump   order 4, 3 double steps (Yoshida's triple jump; one coefficient is -1.70);
+//   Suzuki5      order 4, 5 double steps (Suzuki's fractal);
+//   BlanesMoan4  order 4, 12 plain steps (Blanes and Moan 2002, splitting S4 with 6 stages);
+//   Yoshida7     order 6, 7 double steps (Yoshida 1990, solution A);
+//   KahanLi9     order 6, 9 double steps (Kahan and Li 1997, s9odr6a);
+//   BlanesMoan6  order 6, 20 plain steps (Blanes and Moan 2002, splitting S6 with 10 stages);
+//   McLachlan15  order 8, 15 double steps (McLachlan 1995, s15odr8);
+//   KahanLi17    order 8, 17 double steps (Kahan and Li 1997, s17odr8a).
+enum class Composition {
+  Auto,
+  TripleJump,
+  Suzuki5,
+  Yoshida7,
+  KahanLi9,
+  BlanesMoan4,
+  BlanesMoan6,
+  McLachlan15,
+  KahanLi17
+};
 const char* to_string(Composition composition);  // "auto", "triple-jump", "suzuki5", ...
 // Throws std::invalid_argument naming the valid choices.
 Composition composition_from_string(const std::string& name);
+// The compositions of each order, for messages: "order 4: triple-jump, suzuki5, ...; order 6: ...".
+std::string composition_choices();
 
-// The coefficients gamma_1 ... gamma_s of a composition (symmetric, summing to 1).
+// A composed step of size H: `steps` plain steps of sizes c[0] H, ..., c[steps-1] H
+// (palindromic, summing to 1), each one factorisation.
 struct CompositionScheme {
   Composition composition;
   int order;
-  int stages;           // s: a composed step takes 2 s plain steps (factorisations)
-  const double* gamma;  // s coefficients, gamma_i = gamma_{s+1-i}
+  int steps;        // 0 for the plain step (order 2, Auto)
+  const double* c;  // steps coefficients, c[i] = c[steps-1-i]
 };
 
 // The scheme that `composition` (resolved for `order` when Auto) names. Throws
-// std::invalid_argument when order is not 2, 4 or 6, or the composition has another order.
-// Order 2 with Auto is the plain step, reported as stages = 0.
+// std::invalid_argument when order is not 2, 4, 6 or 8, or the composition has another order.
 CompositionScheme composition_scheme(int order, Composition composition = Composition::Auto);
 
 }  // namespace nonholo

@@ -55,8 +55,8 @@ struct RattleOptions {
   // The period-2 mode: measured at the end of every few steps, restarted when needed.
   RestartOptions restart = {};
 
-  // 2: the plain step of size h. 4 or 6: one step advances by H = h through the composition
-  // of double steps (composition.hpp, DESIGN.md section 9): 2 s plain substeps, each with
+  // 2: the plain step of size h. 4, 6 or 8: one step advances by H = h through a composition
+  // of plain steps (composition.hpp): a palindromic sequence of plain substeps, each with
   // its own time for the forces. At the composed step's end, the parasitic amplitude is
   // measured (monitor_every > 0); restart.mode Auto restarts lambda~ <- lambda_s at every
   // composed step, Periodic every `every` composed steps, Never not at all (the symmetric

@@ -76,7 +76,7 @@ struct RunSummary {
   std::string backend;
   std::string hitch;
   std::string restart;  // the restart policy in use (reflection), "" for the other methods
-  int order = 0;            // reflection: 2, 4 or 6 (0: the other methods)
+  int order = 0;            // reflection: 2, 4, 6 or 8 (0: the other methods)
   std::string composition;  // reflection with order 4, 6: the composition's name
   int bodies = 0;
   Status status = Status::Ok;
