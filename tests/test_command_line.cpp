@@ -94,7 +94,7 @@ TEST(CommandLine, ChainSummaryReportsBodiesGapHitchAndBackend) {
 }
 
 TEST(CommandLine, ReferenceMethodsReportTheirWork) {
-  for (const char* method : {"rk4", "arkode-dp5", "arkode-verner"}) {
+  for (const char* method : {"rk4", "arkode-dp5", "arkode-verner", "arkode-fehlberg8"}) {
     const Result r = run({"run", "sleigh", "--method", method, "--dt", "0.1", "--t-end", "2"});
     ASSERT_EQ(r.code, 0) << r.err;
     const auto kv = parse_summary(r.out);
@@ -196,9 +196,9 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"fly"}, "unknown command 'fly' (commands: run, batch, list, wp)");
   expect_failure({"run", "sleigh_chain", "--hitch", "rigid"}, "unknown hitch mode 'rigid' (valid: oneform, holonomic)");
   expect_failure({"run", "sleigh", "--method", "euler"},
-                 "unknown method 'euler' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner)");
-  expect_failure({"run", "sleigh", "--project"}, "--project applies to the methods rk4, arkode-dp5 and arkode-verner");
-  expect_failure({"run", "sleigh", "--tol", "1e-6"}, "--tol applies to the methods arkode-dp5 and arkode-verner");
+                 "unknown method 'euler' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner, arkode-fehlberg8)");
+  expect_failure({"run", "sleigh", "--project"}, "--project applies to the methods rk4, arkode-dp5, arkode-verner and arkode-fehlberg8");
+  expect_failure({"run", "sleigh", "--tol", "1e-6"}, "--tol applies to the methods arkode-dp5, arkode-verner and arkode-fehlberg8");
   expect_failure({"run", "sleigh", "--method", "rk4", "--hitch", "oneform"}, "--hitch applies to the reflection method only");
   expect_failure({"run", "sleigh", "--method", "arkode-dp5", "--tol", "0"}, "tolerance = 0 must lie in [1e-15, 1)");
   expect_failure({"run", "sleigh_chain", "--restart", "-1"},

@@ -1,5 +1,5 @@
 // The reference integrators of the index-reduced equations against the exact solutions of
-// DESIGN.md section 6: RK4 is of order 4; ARKODE's adaptive Dormand-Prince and Verner pairs
+// DESIGN.md section 6: RK4 is of order 4; ARKODE's adaptive Dormand-Prince and Verner pairs (6(5), 8(7))
 // follow their tolerance; projection keeps the constraints (and hitches) to round-off.
 #include <nonholo/reference/integrators.hpp>
 #include <nonholo/scenarios/exact_solutions.hpp>
@@ -62,8 +62,8 @@ TEST(Reference, Rk4IsFourthOrderOnTheSleigh) {
 }
 
 TEST(Reference, ArkodeFollowsItsTolerance) {
-  long tight_rhs[2] = {0, 0};
-  for (Method m : {Method::ArkodeDp5, Method::ArkodeVerner}) {
+  long tight_rhs[3] = {0, 0, 0};
+  for (Method m : {Method::ArkodeDp5, Method::ArkodeVerner, Method::ArkodeFehlberg8}) {
     double previous = 1.0;
     long previous_rhs = 0;
     for (double tol : {1e-6, 1e-8, 1e-10}) {
@@ -79,11 +79,13 @@ TEST(Reference, ArkodeFollowsItsTolerance) {
       previous = e;
       previous_rhs = rhs;
     }
-    tight_rhs[m == Method::ArkodeVerner] = previous_rhs;
+    tight_rhs[m == Method::ArkodeDp5 ? 0 : m == Method::ArkodeVerner ? 1 : 2] = previous_rhs;
   }
   // The sixth-order pair must need fewer evaluations than the fifth-order one at 1e-10 (it
-  // did not through ERKStep of SUNDIALS 6.4.1, which ran the Verner table at order 3).
+  // did not through ERKStep of SUNDIALS 6.4.1, which ran the Verner table at order 3), and
+  // the eighth-order pair fewer than the sixth.
   EXPECT_LT(tight_rhs[1], tight_rhs[0]);
+  EXPECT_LT(tight_rhs[2], tight_rhs[1]);
 }
 
 TEST(Reference, ProjectionKeepsTheConstraint) {
@@ -135,7 +137,7 @@ TEST(Reference, BadOptionsAndNamesAreRefused) {
   o.h = -1;
   testing::expect_error([&] { reference::validate(o); }, "step size h = -1 must be positive and finite");
   testing::expect_error([] { reference::method_from_string("euler"); },
-                        "unknown reference method 'euler' (valid: rk4, arkode-dp5, arkode-verner)");
+                        "unknown reference method 'euler' (valid: rk4, arkode-dp5, arkode-verner, arkode-fehlberg8)");
   Sleigh s;
   testing::expect_error([&] { Integrator(s.setup.model, Method::Rk4, {}, 0.0, Vector::Zero(2), s.v0); },
                         "expected 3 coordinates and 3 velocities, got 2 and 3");

@@ -24,6 +24,7 @@ STYLE = {  # series -> (label, marker, linestyle, colour): the same colour in ev
     "arkode-dp5": ("ARKODE DP5(4)", "D", "--", "C5"),
     "arkode-dp5+project": ("ARKODE DP5(4) + projection", "D", ":", "C6"),
     "arkode-verner": ("ARKODE Verner 6(5)", "P", "--", "C7"),
+    "arkode-fehlberg8": ("ARKODE Fehlberg 8(7)", "X", "--", "C8"),
 }
 
 

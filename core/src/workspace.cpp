@@ -90,11 +90,20 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
   // reports with its row and column (release builds check this once, at the start).
   mu_values.setConstant(std::numeric_limits<double>::quiet_NaN());
 #endif
-  model_->one_form_values(q, mu_values);
   // NaN or Inf in mu reaches a diagonal entry of C, so factorize() finds it; the scan that
   // names the entry runs only then (one pass less over mu in every step).
+  // The key is set only after the values: a callback that throws leaves no key behind.
+  if (fused()) {  // a chain: sin/cos once per body (the rows' own values take each 2-5 times),
+    // kept for the bias at the same q (one_form_bias): the reference integrators' right-hand
+    // side, the starts and the projections cost what the step's own passes cost
+    detail::chain_sincos_of(*model_, q, chain_sincos);
+    detail::chain_one_forms_from_sincos(*model_, *this);
+  } else {
+    model_->one_form_values(q, mu_values);
+  }
   mu_q_ = q;
   key_valid_ = mu_valid_ = true;
+  sincos_valid_ = fused();
   return Status::Ok;
 }
 

@@ -16,14 +16,16 @@ const char* to_string(Method method) {
     case Method::Rk4: return "rk4";
     case Method::ArkodeDp5: return "arkode-dp5";
     case Method::ArkodeVerner: return "arkode-verner";
+    case Method::ArkodeFehlberg8: return "arkode-fehlberg8";
   }
   return "unknown";
 }
 
 Method method_from_string(const std::string& name) {
-  for (Method m : {Method::Rk4, Method::ArkodeDp5, Method::ArkodeVerner})
+  for (Method m : {Method::Rk4, Method::ArkodeDp5, Method::ArkodeVerner, Method::ArkodeFehlberg8})
     if (name == to_string(m)) return m;
-  throw std::invalid_argument("unknown reference method '" + name + "' (valid: rk4, arkode-dp5, arkode-verner)");
+  throw std::invalid_argument("unknown reference method '" + name +
+                              "' (valid: rk4, arkode-dp5, arkode-verner, arkode-fehlberg8)");
 }
 
 void validate(const Options& o) {
@@ -103,8 +105,9 @@ Integrator::Integrator(const Model& model, Method method, const Options& options
   check(a.y != nullptr, "N_VMake_Serial");
   a.memory = ARKStepCreate(Arkode::rhs, nullptr, t0, a.y, a.context);
   check(a.memory != nullptr, "ARKStepCreate");
-  a.table = ARKodeButcherTable_LoadERK(method == Method::ArkodeDp5 ? ARKODE_DORMAND_PRINCE_7_4_5
-                                                                   : ARKODE_VERNER_8_5_6);
+  a.table = ARKodeButcherTable_LoadERK(method == Method::ArkodeDp5       ? ARKODE_DORMAND_PRINCE_7_4_5
+                                       : method == Method::ArkodeFehlberg8 ? ARKODE_FEHLBERG_13_7_8
+                                                                         : ARKODE_VERNER_8_5_6);
   check(a.table != nullptr, "ARKodeButcherTable_LoadERK");
   check(ARKStepSetTables(a.memory, a.table->q, a.table->p, nullptr, a.table) == ARK_SUCCESS, "ARKStepSetTables");
   check(ARKStepSetUserData(a.memory, &a) == ARK_SUCCESS, "ARKStepSetUserData");

@@ -47,9 +47,9 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                   "factorisation of C: auto, block-diagonal, dense, banded, cholmod-natural, cholmod-amd");
   cmd->add_option("--hitch", o.hitch, "hitches: holonomic (position level, default) or oneform");
   cmd->add_option("--method", o.config.method,
-                  "reflection (default), dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner (the "
-                  "last three integrate the index-reduced equations; --dt is then RK4's step or "
-                  "ARKODE's output interval)");
+                  "reflection (default), dla-midpoint, dla-left, rk4, arkode-dp5 (Dormand-Prince 5(4)), "
+                  "arkode-verner (Verner 6(5)), arkode-fehlberg8 (Fehlberg 8(7)) (the last four integrate the "
+                  "index-reduced equations; --dt is then RK4's step or ARKODE's output interval)");
   cmd->add_flag("--project", o.config.project,
                 "rk4 and arkode-*: project onto the constraints (and hitches) after every step");
   cmd->add_option("--tol", o.config.tol, "arkode-*: relative and absolute tolerance (default 1e-8)");
@@ -100,7 +100,7 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
          {"--hitch", "--restart", "--restart-tol", "--monitor-every", "--order", "--composition", "--rotation"})
       if (cmd->count(option)) throw std::invalid_argument(std::string(option) + " applies to the reflection method only");
   } else if (cmd->count("--tol")) {
-    throw std::invalid_argument("--tol applies to the methods arkode-dp5 and arkode-verner");
+    throw std::invalid_argument("--tol applies to the methods arkode-dp5, arkode-verner and arkode-fehlberg8");
   }
   if (cmd->count("--restart-tol") && !(run.restart_tol > 0.0))
     throw std::invalid_argument("--restart-tol " + std::to_string(run.restart_tol) + ": must be positive");

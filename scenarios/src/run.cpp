@@ -233,7 +233,7 @@ std::string energy_advice(const RunSummary& r, const RattleOptions& o) {
 }
 
 bool reference_method(const std::string& name) {
-  return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner";
+  return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner" || name == "arkode-fehlberg8";
 }
 
 }  // namespace
@@ -333,7 +333,7 @@ PreparedRun prepare_run(const RunConfig& config) {
   r.choice.reference.project = config.project;
   reference::validate(r.choice.reference);
   if (!reference_method(config.method) && config.project)
-    throw std::invalid_argument("--project applies to the methods rk4, arkode-dp5 and arkode-verner");
+    throw std::invalid_argument("--project applies to the methods rk4, arkode-dp5, arkode-verner and arkode-fehlberg8");
   if (!std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite");
   if (config.every < 1)
     throw std::invalid_argument("--every " + std::to_string(config.every) + ": must be at least 1");

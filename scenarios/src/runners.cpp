@@ -340,7 +340,8 @@ std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice&
     method = reference::method_from_string(c.method);
   } catch (const std::invalid_argument&) {
     throw std::invalid_argument("unknown method '" + c.method +
-                                "' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner)");
+                                "' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner, "
+                                "arkode-fehlberg8)");
   }
   return std::make_unique<ReferenceRunner>(setup, method, c, phase);
 }

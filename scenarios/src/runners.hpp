@@ -58,7 +58,7 @@ class Runner {
 };
 
 struct MethodChoice {
-  std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner
+  std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner, arkode-fehlberg8
   RattleOptions rattle;               // reflection
   reference::Options reference;       // the others
   sparse::Backend backend = sparse::Backend::Auto;

@@ -173,7 +173,7 @@ class alignas(128) Workspace {
   bool key_valid_ = false;
   bool mu_valid_ = false;     // mu_values holds mu(mu_q_)
   bool factor_valid_ = false;  // the factorisation holds C(mu(mu_q_))
-  bool sincos_valid_ = false;  // chain_sincos holds sin/cos of mu_q_ (set by a fused step only)
+  bool sincos_valid_ = false;  // chain_sincos holds sin/cos of mu_q_ (fused workspaces only)
   bool options_known_ = false;  // options_ passed step()'s checks
   RattleOptions options_;
   Status report_non_finite_one_forms();

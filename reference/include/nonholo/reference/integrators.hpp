@@ -1,7 +1,7 @@
 #pragma once
 // Reference integrators of the index-reduced equations (DESIGN.md section 2, baselines):
 // classical fixed-step RK4, and SUNDIALS ARKODE's adaptive explicit Runge-Kutta with the
-// Dormand-Prince 5(4) or the Verner 6(5) table. Each can project onto the constraints after
+// Dormand-Prince 5(4), the Verner 6(5) or the Fehlberg 8(7) table. Each can project onto the constraints after
 // every step (positions onto g = 0 for holonomic rows, velocities onto D), as users often do.
 #include <nonholo/reference/index_reduced.hpp>
 
@@ -10,8 +10,11 @@
 
 namespace nonholo::reference {
 
-enum class Method { Rk4, ArkodeDp5, ArkodeVerner };
-const char* to_string(Method method);  // "rk4", "arkode-dp5", "arkode-verner"
+// ArkodeVerner is the 8-stage 6(5) pair ARKODE_VERNER_8_5_6; ArkodeFehlberg8 the 13-stage
+// pair ARKODE_FEHLBERG_13_7_8, of order 8 with an embedded 7 (Verner's 8(7) pair,
+// ARKODE_VERNER_13_7_8, came with SUNDIALS 6.6; Debian bookworm ships 6.4.1).
+enum class Method { Rk4, ArkodeDp5, ArkodeVerner, ArkodeFehlberg8 };
+const char* to_string(Method method);  // "rk4", "arkode-dp5", "arkode-verner", "arkode-fehlberg8"
 // Throws std::invalid_argument naming the valid choices.
 Method method_from_string(const std::string& name);
 

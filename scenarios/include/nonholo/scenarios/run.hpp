@@ -47,7 +47,7 @@ struct RunConfig {
   std::string restart = "auto";  // see set_restart (restart_options.hpp): auto, 0 or K
   double restart_tol = 0.0;      // RestartOptions::tolerance (0: min(dt^3, 1e-3))
   int monitor_every = 8;         // RestartOptions::monitor_every
-  std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner
+  std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner (6(5)), arkode-fehlberg8 (8(7))
   int order = 2;                      // reflection: 2, or 4 and 6 by composition
   std::string composition = "auto";   // see composition_from_string (composition.hpp)
   std::string rotation = "moser-veselov";  // rigid bodies: see rotation_from_string (rattle_options.hpp)
