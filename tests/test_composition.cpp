@@ -13,6 +13,7 @@
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
+#include "support/driven_particle.hpp"
 #include "support/scenes.hpp"
 #include "support/expect_error.hpp"
 
@@ -323,24 +324,15 @@ TEST(Composition, ComposedStepIsSymmetric) {
 }
 
 // A composed step that fails in a middle substep leaves the state exactly as it was; the time
-// each substep sees is t + (gamma_1 + ... + gamma_i) H, and the cost is 2 s factorisations.
+// each substep sees is t + (c_1 + ... + c_i) H, and the cost is one factorisation a plain step.
 TEST(Composition, FailedStepLeavesTheStateAndSubstepsSeeTheirTimes) {
   std::vector<double> seen;  // the times at which the force is evaluated
   double fail_after = 1e300;
-  ModelBuilder b;
-  b.add_body({"x", "y", "z"}, Eigen::Matrix3d::Identity());
-  b.add_one_form({0, 2});
-  b.one_form_values([](ConstVecRef q, VecRef mu) {
-    mu[0] = -q[1];
-    mu[1] = 1.0;
-  });
-  b.one_form_bias([](ConstVecRef, ConstVecRef v, VecRef bias) { bias[0] = -v[1] * v[0]; });
-  b.external_force([&](double t, ConstVecRef, VecRef f) {
+  const Model model = testing::driven_particle([&](double t, ConstVecRef, VecRef f) {
     seen.push_back(t);
     f.setZero();
     f[1] = t > fail_after ? std::numeric_limits<double>::quiet_NaN() : std::sin(t);
   });
-  const Model model = b.build();
   Workspace ws(model);
   State s = start_from_velocity(model, ws, 0.0, Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 0));
   RattleOptions o = composed(4, 0.3);

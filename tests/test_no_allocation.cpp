@@ -1,6 +1,7 @@
 // No allocation inside a step, for every backend: the process's malloc is counted while
 // steps (and the per-step diagnostics the command line uses) run.
 #include <nonholo/accuracy.hpp>
+#include <nonholo/adaptive.hpp>
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/dla.hpp>
 #include <nonholo/implicit.hpp>
@@ -66,6 +67,31 @@ TEST(NoAllocation, AccuracyWatch) {
     EXPECT_EQ(testing::stop_counting_allocations(), 0) << "order " << order;
     EXPECT_GT(watch.estimate().samples(), 10);
     EXPECT_TRUE(std::isfinite(watch.estimate().estimate()));
+  }
+}
+
+// Adaptive composed steps: the estimate, the rejections (the state restored by copy) and the
+// retries allocate nothing (order 6, a chain in both hitch modes, a tolerance that rejects).
+TEST(NoAllocation, AdaptiveStepper) {
+  const auto& info = scenarios::find_scene("sleigh_chain");
+  const auto setup = info.build(info.defaults());
+  for (HitchMode hitch : {HitchMode::OneForm, HitchMode::Holonomic}) {
+    RattleOptions o;
+    o.order = 6;
+    o.hitch = hitch;
+    AdaptiveOptions a;
+    a.tol = 1e-9;
+    a.h_initial = 0.2;
+    AdaptiveStepper stepper(setup.model, o, a);
+    Workspace ws(setup.model, {Backend::Auto, true});
+    State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
+    ASSERT_EQ(stepper.step(setup.model, ws, s, 100.0), Status::Ok) << ws.message();  // warm-up
+    testing::start_counting_allocations();
+    for (int k = 0; k < 40; ++k)
+      if (stepper.step(setup.model, ws, s, 100.0) != Status::Ok) break;
+    EXPECT_EQ(testing::stop_counting_allocations(), 0) << to_string(hitch);
+    EXPECT_GT(stepper.rejected(), 0) << "the count must include rejections";
+    EXPECT_EQ(stepper.accepted(), 41);
   }
 }
 

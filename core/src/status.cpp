@@ -32,6 +32,7 @@ const char* to_string(Status status) {
     case Status::Inaccurate: return "inaccurate";
     case Status::WorkspaceBusy: return "workspace-busy";
     case Status::PrecisionLoss: return "precision-loss";
+    case Status::StepSizeTooSmall: return "step-size-too-small";
   }
   return "unknown";
 }

@@ -28,9 +28,10 @@ enum class Status {
   Inaccurate,           // a run whose estimated error exceeds its accuracy tolerance (results kept)
   WorkspaceBusy,        // another call is using the workspace (busy_flag.hpp); its message is that call's
   PrecisionLoss,        // a run's coordinates are so large that a step's displacement is below their ulp
+  StepSizeTooSmall,     // adaptive steps: the error test failed down to the smallest step allowed
 };
 // The last enumerator (for loops over all of them, the Python enum's).
-inline constexpr Status kLastStatus = Status::PrecisionLoss;
+inline constexpr Status kLastStatus = Status::StepSizeTooSmall;
 
 const char* to_string(Status status);
 
