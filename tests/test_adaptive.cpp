@@ -130,6 +130,15 @@ TEST(Adaptive, RefusesWhatItCannotDo) {
   a = {};
   a.max_factor = 1.0;
   testing::expect_error([&] { AdaptiveStepper(setup.model, o, a); }, "max_factor = 1 must be above 1");
+  // A stop time not after the state's: a status, the state untouched.
+  AdaptiveStepper stepper(setup.model, o, {});
+  Workspace ws(setup.model, {sparse::Backend::Auto, true});
+  State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
+  const State before = s;
+  EXPECT_EQ(stepper.step(setup.model, ws, s, s.t), Status::InvalidStepSize);
+  EXPECT_THAT(std::string(ws.message()), ::testing::HasSubstr("is not after t = 0"));
+  EXPECT_TRUE(testing::bitwise_equal(before.q, s.q));
+  EXPECT_EQ(stepper.accepted() + stepper.rejected(), 0);
 }
 
 // A composed step that keeps failing (a force that turns NaN at t = 0.5): the stepper retries

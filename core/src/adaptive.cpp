@@ -85,6 +85,8 @@ double AdaptiveStepper::extrapolation_error(double t, ConstVecRef q, double& noi
 }
 
 Status AdaptiveStepper::step(const Model& model, Workspace& ws, State& s, double t_stop) {
+  if (!(t_stop > s.t))
+    return ws.fail(Status::InvalidStepSize, "adaptive step: t_stop = %.17g is not after t = %.17g", t_stop, s.t);
   saved_ = s;  // same sizes: a copy, no allocation
   const double limit = kappa(order_) * adaptive_.tol;
   for (;;) {

@@ -50,7 +50,8 @@ class AdaptiveStepper {
   // next step then resumes the size the estimate asked for). Rejected attempts leave s as it
   // was, bit for bit. A failed composed step (any status) is retried with a step 4 times
   // smaller, like a rejection; below h_min the step fails with Status::StepSizeTooSmall, s as
-  // before. Never throws, never allocates. The workspace must allow composed steps.
+  // before; a t_stop not after s.t gives Status::InvalidStepSize. Never throws, never
+  // allocates. The workspace must allow composed steps.
   Status step(const Model& model, Workspace& ws, State& s, double t_stop);
 
   // After changing the state by hand: forget the history (the next steps take h_initial).
