@@ -110,7 +110,7 @@ Status AdaptiveStepper::step(const Model& model, Workspace& ws, State& s, double
       } else {
         double noise = 0.0;
         const double e = extrapolation_error(s.t, s.q, noise);
-        // At the round-off floor the estimate cannot tell: accept, and do not shrink.
+        // At the round-off floor the estimate cannot tell: accept, and grow slowly.
         accept = e <= std::max(limit * h, noise);
         const double seen = std::max(e, noise);
         factor = seen > 0.0 ? adaptive_.safety * std::pow(limit * h / seen, 1.0 / order_) : adaptive_.max_factor;
@@ -140,7 +140,7 @@ Status AdaptiveStepper::step(const Model& model, Workspace& ws, State& s, double
     s = saved_;
     h_ = h * factor;
     // A history of steps much longer than the one now tried says little about it (and holds
-    // the velocities of steps that may have been too long): start it again at this size.
+    // the configurations of steps that may have been too long): start it again at this size.
     if (estimated && h_ < 0.125 * last_h_) count_ = head_ = 0;
     if (h_ < adaptive_.h_min)
       return ws.fail(Status::StepSizeTooSmall,
