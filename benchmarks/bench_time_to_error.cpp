@@ -1,7 +1,8 @@
 // Time to reach a given accuracy: on a free hitched chain of 10 and of 100 bodies to t = 100,
 // the error in q at t = 100, for the reflection method of orders 4, 6 and 8 (default
-// compositions, one-form and holonomic hitches), RK4, and ARKODE's Verner 6(5) and Fehlberg
-// 8(7) pairs, and adaptive composed steps of orders 6 and 8 (a6, a8: setting = tol). The oracle is ARKODE Fehlberg 8(7) at tolerance 1e-15, checked against order 8
+// compositions, one-form and holonomic hitches), adaptive composed steps of orders 6 and 8
+// (setting = tol), RK4, and ARKODE's Verner 6(5) and Fehlberg 8(7) pairs. The oracle is
+// ARKODE Fehlberg 8(7) at tolerance 1e-15, checked against order 8
 // with one-form hitches at H = 0.05 (they agree to 4e-13 with 10 bodies and 5e-12 with 100;
 // ARKODE Verner at 1e-13, the oracle before, was 1.2e-10 and 1.2e-9 off). Before timing, each
 // method's step (or tolerance) is searched for the largest one (loosest one) whose error is at

@@ -105,7 +105,7 @@ Pair compose(const CompositionScheme& s, Pair y, long double H, int steps) {
 }
 
 // Palindromic tables summing to 1, a symmetric method (Psi_-H o Psi_H = id), and the order
-// measured on the splitting: the differences between runs with 2N, 4N and 8N steps to T = 2
+// measured on the splitting: the differences between runs with n, 2n, 4n and 8n steps to T = 2
 // fall by 2^p (their ratio within 12 %).
 TEST(Composition, TablesHaveTheirOrderOnAnIndependentSplitting) {
   const Pair y0(0.6L, -0.4L, 0.8L, 0.5L);

@@ -110,11 +110,10 @@ Status AdaptiveStepper::step(const Model& model, Workspace& ws, State& s, double
       } else {
         double noise = 0.0;
         const double e = extrapolation_error(s.t, s.q, noise);
-        // At the round-off floor the estimate cannot tell: accept, and grow slowly.
+        // At the round-off floor the estimate cannot tell: accept, and grow slowly (the history
+        // follows); above it, the controller.
         accept = e <= std::max(limit * h, noise);
-        const double seen = std::max(e, noise);
-        factor = seen > 0.0 ? adaptive_.safety * std::pow(limit * h / seen, 1.0 / order_) : adaptive_.max_factor;
-        if (e <= noise) factor = 1.25;  // the error is not visible yet: grow, slowly (the history follows)
+        factor = e <= noise ? 1.25 : adaptive_.safety * std::pow(limit * h / e, 1.0 / order_);
         factor = std::clamp(factor, adaptive_.min_factor, adaptive_.max_factor);
         if (accept) estimate_ = e;
       }

@@ -91,8 +91,8 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
   mu_values.setConstant(std::numeric_limits<double>::quiet_NaN());
 #endif
   // NaN or Inf in mu reaches a diagonal entry of C, so factorize() finds it; the scan that
-  // names the entry runs only then (one pass less over mu in every step).
-  // The key is set only after the values: a callback that throws leaves no key behind.
+  // names the entry runs only then (one pass less over mu in every step). The key is set only
+  // after the values: a callback that throws leaves no key behind.
   if (fused()) {  // a chain: sin/cos once per body (the rows' own values take each 2-5 times),
     // kept for the bias at the same q (one_form_bias): the reference integrators' right-hand
     // side, the starts and the projections cost what the step's own passes cost

@@ -1,8 +1,9 @@
 #pragma once
 // Reference integrators of the index-reduced equations (DESIGN.md section 2, baselines):
 // classical fixed-step RK4, and SUNDIALS ARKODE's adaptive explicit Runge-Kutta with the
-// Dormand-Prince 5(4), the Verner 6(5) or the Fehlberg 8(7) table. Each can project onto the constraints after
-// every step (positions onto g = 0 for holonomic rows, velocities onto D), as users often do.
+// Dormand-Prince 5(4), the Verner 6(5) or the Fehlberg 8(7) table. Each can project onto the
+// constraints after every step (positions onto g = 0 for holonomic rows, velocities onto D), as
+// users often do.
 #include <nonholo/reference/index_reduced.hpp>
 
 #include <memory>
