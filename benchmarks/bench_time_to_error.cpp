@@ -98,6 +98,7 @@ Outcome run(const Chain& c, const std::string& method, double setting) {
     State s = start_from_velocity(model, ws, 0.0, c.setup.q0, c.setup.v0);
     AdaptiveOptions a;
     a.tol = setting;
+    a.horizon = kT;
     AdaptiveStepper stepper(model, o, a);
     while (s.t < kT)
       if (stepper.step(model, ws, s, kT) != Status::Ok) {

@@ -159,6 +159,44 @@ TEST(CommandLine, CsvHoldsTheTrajectoryToTheLastDigit) {
   std::remove(path.c_str());
 }
 
+// --tol with a composed order: adaptive steps that land on every output time (--dt). Each CSV
+// row against the exact sleigh: the error at t_end within 10 tol (the library's measured
+// tracking, test_adaptive), the summary's counts consistent with the factorisations (three
+// composed steps a pair, 20 substeps each at order 6).
+TEST(CommandLine, AdaptiveStepsLandOnTheOutputTimes) {
+  const std::string path = temp_path("adaptive.csv");
+  const double tol = 1e-9;
+  const Result r = run({"run", "sleigh", "--order", "6", "--tol", "1e-9", "--dt", "0.5", "--t-end", "10", "--out", path});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err, "") << "no warning: the steps are shorter than the output interval";
+  const auto kv = parse_summary(r.out);
+  EXPECT_EQ(kv.at("steps"), "20");  // output intervals
+  EXPECT_EQ(kv.at("tol"), "1e-09");
+  const long accepted = std::stol(kv.at("adaptive_steps")), rejected = std::stol(kv.at("rejected"));
+  EXPECT_GT(accepted, 20);
+  EXPECT_EQ(accepted % 2, 0) << "pairs";
+  EXPECT_EQ(std::stol(kv.at("factorizations")), 20 * 3 * (accepted / 2 + rejected) + 1) << "and the start's";
+  EXPECT_LE(std::stod(kv.at("energy_rel_err_max")), 1e-14);
+  const scenarios::SleighExact exact(1.0, 1.0, 0.2, 1.0, 1.0, 0.0, 0.0, 0.0);
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  int rows = 0;
+  double error = 0.0;
+  for (; std::getline(in, line); ++rows) {
+    std::vector<double> row;
+    std::istringstream ls(line);
+    for (std::string cell; std::getline(ls, cell, ',');) row.push_back(std::stod(cell));
+    EXPECT_EQ(row[0], 0.5 * rows) << "lands on the output time exactly";
+    const Vector q = exact.configuration(row[0]);
+    for (int i = 0; i < 3; ++i) error = std::max(error, std::abs(row[1 + i] - q[i]));
+  }
+  EXPECT_EQ(rows, 21);
+  EXPECT_LT(error, 10 * tol);
+  EXPECT_GT(error, 0.1 * tol) << "not far more accurate than asked: the tolerance means something";
+  std::remove(path.c_str());
+}
+
 TEST(CommandLine, SnakeboardCsvHeader) {
   const std::string path = temp_path("board.csv");
   ASSERT_EQ(run({"run", "snakeboard", "--t-end", "0.1", "--out", path}).code, 0);
@@ -198,7 +236,11 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"run", "sleigh", "--method", "euler"},
                  "unknown method 'euler' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner, arkode-fehlberg8)");
   expect_failure({"run", "sleigh", "--project"}, "--project applies to the methods rk4, arkode-dp5, arkode-verner and arkode-fehlberg8");
-  expect_failure({"run", "sleigh", "--tol", "1e-6"}, "--tol applies to the methods arkode-dp5, arkode-verner and arkode-fehlberg8");
+  expect_failure({"run", "sleigh", "--method", "rk4", "--tol", "1e-6"},
+                 "--tol applies to the reflection method (adaptive steps) and to arkode-dp5, arkode-verner and arkode-fehlberg8");
+  expect_failure({"run", "sleigh", "--order", "6", "--tol", "1e-6", "--error-estimate"},
+                 "--error-estimate applies to fixed steps: adaptive steps (--tol) control their error");
+  expect_failure({"run", "sleigh", "--order", "6", "--tol", "0"}, "tolerance = 0 must lie in [1e-15, 1)");
   expect_failure({"run", "sleigh", "--method", "rk4", "--hitch", "oneform"}, "--hitch applies to the reflection method only");
   expect_failure({"run", "sleigh", "--method", "arkode-dp5", "--tol", "0"}, "tolerance = 0 must lie in [1e-15, 1)");
   expect_failure({"run", "sleigh_chain", "--restart", "-1"},
@@ -444,9 +486,9 @@ TEST(CommandLine, WorkPrecisionWritesItsTables) {
     ++rows;
     ok += line.size() > 3 && line.compare(line.size() - 3, 3, ",ok") == 0;
   }
-  // quick: 2 scenes x (4 methods x 2 steps + rk4+project x 2 + orders 4 and 6 x 2 composed
-  // steps + 3 ARKODE series x 1 tolerance).
-  EXPECT_EQ(rows, 2 * (8 + 2 + 4 + 3));
+  // quick: 2 scenes x (4 methods x 2 steps + rk4+project x 2 + orders 4, 6 and 8 x 2 composed
+  // steps + adaptive orders 2, 4, 6, 8 x 1 tolerance + 4 ARKODE series x 1 tolerance).
+  EXPECT_EQ(rows, 2 * (8 + 2 + 6 + 4 + 4));
   EXPECT_EQ(ok, rows);
   std::filesystem::remove_all(dir);
   expect_failure({"wp", "--out", "/proc/nonholo-cannot-write-here"}, "nonholo wp: cannot create");

@@ -15,8 +15,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 STYLE = {  # series -> (label, marker, linestyle, colour): the same colour in every panel
     "reflection": ("reflection (ours, automatic restarts)", "o", "-", "C0"),
     "reflection+plain": ("reflection, plain (--restart 0)", "x", "-", "C9"),
-    "reflection-o4": ("reflection order 4 (Suzuki 5)", "o", "-.", "C8"),
-    "reflection-o6": ("reflection order 6 (Kahan-Li 9)", "*", "-", "k"),
+    "reflection-o4": ("reflection order 4 (Blanes-Moan 4)", "o", "-.", "C8"),
+    "reflection-o6": ("reflection order 6 (Blanes-Moan 6)", "*", "-", "k"),
+    "reflection-o8": ("reflection order 8 (Kahan-Li 17)", "*", "-.", "C0"),
+    "reflection-a2": ("adaptive order 2", "o", ":", "C9"),
+    "reflection-a4": ("adaptive order 4", "o", ":", "C8"),
+    "reflection-a6": ("adaptive order 6", "*", ":", "k"),
+    "reflection-a8": ("adaptive order 8", "*", ":", "C0"),
     "dla-midpoint": ("DLA midpoint", "s", "-", "C1"),
     "dla-left": ("DLA left point", "v", "-", "C2"),
     "rk4": ("RK4", "^", "--", "C3"),
@@ -24,7 +29,7 @@ STYLE = {  # series -> (label, marker, linestyle, colour): the same colour in ev
     "arkode-dp5": ("ARKODE DP5(4)", "D", "--", "C5"),
     "arkode-dp5+project": ("ARKODE DP5(4) + projection", "D", ":", "C6"),
     "arkode-verner": ("ARKODE Verner 6(5)", "P", "--", "C7"),
-    "arkode-fehlberg8": ("ARKODE Fehlberg 8(7)", "X", "--", "C8"),
+    "arkode-fehlberg8": ("ARKODE Fehlberg 8(7)", "X", "--", "navy"),
 }
 
 
@@ -55,7 +60,10 @@ def main():
 
     rows = read(os.path.join(src, "work_precision.csv"))
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    fig, axes = plt.subplots(2, 2, figsize=(12, 9))
+    nrows = (len(scenes) + 1) // 2
+    fig, axes = plt.subplots(nrows, 2, figsize=(12, 4.5 * nrows), squeeze=False)
+    for ax in axes.flat[len(scenes):]:
+        ax.axis("off")
     for ax, scene in zip(axes.flat, scenes):
         for key, (label, marker, ls, colour) in STYLE.items():
             pts = [(float(r["cpu_s"]), float(r["error"])) for r in rows

@@ -1,5 +1,5 @@
-// Adaptive composed steps (adaptive.hpp): the Milne-device estimate from the configurations of
-// the last accepted steps, the error-per-unit-step test and the step-size controller.
+// Adaptive composed steps (adaptive.hpp): a pair of steps judged by step doubling, the
+// error-per-unit-step test and the step-size controller.
 #include <nonholo/adaptive.hpp>
 
 #include <nonholo/rattle.hpp>
@@ -19,21 +19,18 @@ namespace {
   throw std::invalid_argument(os.str());
 }
 
-// kappa of adaptive.hpp by order: the estimate of a step is this many times tol H where the
-// error at the end of a run is about tol (README "Adaptive steps": measured on the sleigh to
-// t = 10 and the 10- and 100-body chains to t = 100; order 8 is not proportional, see there).
-double kappa(int order) {
-  switch (order) {
-    case 4: return 1e3;
-    case 6: return 1e4;
-    default: return 1e5;
-  }
-}
+// The round-off floor of a doubling difference, in units of eps (|q| + (horizon / 2) |v|), at
+// first; raised where a run shows more (AdaptiveStepper::round_off_).
+constexpr double kNoise = 64.0 * std::numeric_limits<double>::epsilon();
+// The local error allowed per unit step, in units of tol / horizon: the errors of the symmetric
+// compositions add up to less than their local errors' sum (README "Adaptive steps").
+constexpr double kBudget = 10.0;
 
 }  // namespace
 
 void validate(const AdaptiveOptions& o) {
   if (!(o.tol > 0.0 && o.tol < 1.0)) reject("tol", o.tol, "must lie in (0, 1)");
+  if (!(o.horizon > 0.0) || !std::isfinite(o.horizon)) reject("horizon", o.horizon, "must be positive and finite");
   if (!(o.h_initial > 0.0) || !std::isfinite(o.h_initial)) reject("h_initial", o.h_initial, "must be positive and finite");
   if (!(o.h_min > 0.0) || !(o.h_min <= o.h_initial)) reject("h_min", o.h_min, "must be positive and at most h_initial");
   if (!(o.h_max >= o.h_initial)) reject("h_max", o.h_max, "must be at least h_initial");
@@ -43,92 +40,117 @@ void validate(const AdaptiveOptions& o) {
 }
 
 AdaptiveStepper::AdaptiveStepper(const Model& model, const RattleOptions& options, const AdaptiveOptions& adaptive)
-    : options_(options), adaptive_(adaptive), order_(options.order), points_(options.order + 1),
-      h_(adaptive.h_initial) {
+    : options_(options), adaptive_(adaptive), order_(options.order), h_(adaptive.h_initial) {
   validate(adaptive);
-  if (order_ != 4 && order_ != 6 && order_ != 8) {
+  if (order_ != 2 && order_ != 4 && order_ != 6 && order_ != 8) {
     std::ostringstream os;
-    os << "adaptive steps need a composed step: order = " << order_ << " must be 4, 6 or 8";
+    os << "adaptive steps: order = " << order_ << " must be 2, 4, 6 or 8";
     throw std::invalid_argument(os.str());
+  }
+  // The plain step carries lambda~ from one step to the next, which a change of h would
+  // misplace: restart it at every step, as the composed steps do at theirs (the energy-exact
+  // restart keeps the order, 2).
+  if (order_ == 2) {
+    options_.restart.mode = RestartMode::Periodic;
+    options_.restart.every = 1;
   }
   options_.h = adaptive.h_initial;
   validate(options_);
-  const int n = model.num_velocities();
-  history_.setZero(model.num_configuration(), points_);
-  times_.setZero(points_);
-  predicted_.setZero(model.num_configuration());
-  saved_.q.setZero(model.num_configuration());
-  saved_.p.setZero(n);
-  saved_.force.setZero(n);
-  saved_.lambda.setZero(model.num_one_forms());
+  const Eigen::Index nq = model.num_configuration(), nv = model.num_velocities(), m = model.num_one_forms();
+  velocity_.setZero(nv);
+  difference_.setZero(nv);
+  for (State* s : {&saved_, &shadow_}) {
+    s->q.setZero(nq);
+    s->p.setZero(nv);
+    s->force.setZero(nv);
+    s->lambda.setZero(m);
+  }
 }
 
 void AdaptiveStepper::reset() {
-  count_ = head_ = 0;
   h_ = adaptive_.h_initial;
+  starting_ = true;
 }
 
-// The Lagrange polynomial through the history's (t_i, q_i), at t; and the round-off that its
-// weights w_i amplify (64 eps sum |w_i| |q|_inf), below which the difference says nothing.
-double AdaptiveStepper::extrapolation_error(double t, ConstVecRef q, double& noise) {
-  predicted_.setZero();
-  double weights = 0.0;
-  for (int i = 0; i < points_; ++i) {
-    double w = 1.0;
-    for (int j = 0; j < points_; ++j)
-      if (j != i) w *= (t - times_[j]) / (times_[i] - times_[j]);
-    predicted_ += w * history_.col(i);
-    weights += std::abs(w);
-  }
-  noise = 64.0 * std::numeric_limits<double>::epsilon() * weights * q.lpNorm<Eigen::Infinity>();
-  return (q - predicted_).lpNorm<Eigen::Infinity>();
+// |dq| + (horizon / 2) |dv| between the pair's end and the shadow's, and its round-off floor
+// 64 eps (|q| + (horizon / 2) |v|).
+double AdaptiveStepper::doubling_error(const Model& model, const State& pair, const State& shadow, double& noise) {
+  const double lever = 0.5 * adaptive_.horizon;
+  difference_ = shadow.p - pair.p;
+  model.inverse_mass().multiply(difference_.data(), velocity_.data());
+  const double dv = velocity_.lpNorm<Eigen::Infinity>();
+  model.inverse_mass().multiply(pair.p.data(), velocity_.data());
+  noise = kNoise * (pair.q.lpNorm<Eigen::Infinity>() + lever * velocity_.lpNorm<Eigen::Infinity>());
+  return (shadow.q - pair.q).lpNorm<Eigen::Infinity>() + lever * dv;
 }
 
 Status AdaptiveStepper::step(const Model& model, Workspace& ws, State& s, double t_stop) {
   if (!(t_stop > s.t))
     return ws.fail(Status::InvalidStepSize, "adaptive step: t_stop = %.17g is not after t = %.17g", t_stop, s.t);
   saved_ = s;  // same sizes: a copy, no allocation
-  const double limit = kappa(order_) * adaptive_.tol;
+  const double rate = kBudget * adaptive_.tol / adaptive_.horizon;
+  const double doubling = std::ldexp(1.0, order_ + 1) - 2.0;  // the shadow's difference over the local error
+  double rejected_d = 0.0, rejected_h = 0.0;  // the last rejected attempt from saved_
   for (;;) {
-    const bool estimated = count_ == points_;
-    // Land on t_stop rather than pass it; split what is left in two rather than leave a sliver.
+    // Land on t_stop rather than pass it: the last pair splits what is left in two.
     const double left = t_stop - s.t;
     double h = std::min(h_, adaptive_.h_max);
-    const bool landing = h >= left * (1.0 - 1e-12);
-    if (landing)
-      h = left;
-    else if (h > 0.5 * left)
-      h = 0.5 * left;
+    const bool landing = 2.0 * h >= left * (1.0 - 1e-12);
+    if (landing) h = 0.5 * left;
     options_.h = h;
-    const Status status = nonholo::step(model, ws, s, options_);
+    Status status = nonholo::step(model, ws, s, options_);
+    if (status == Status::Ok) {
+      options_.h = landing ? t_stop - s.t : h;  // the second step ends at t_stop exactly
+      status = nonholo::step(model, ws, s, options_);
+    }
     double factor = 0.25;  // a failed composed step is retried 4 times smaller
     bool accept = false;
     if (status == Status::Ok) {
-      if (!estimated) {
-        accept = true;
-        factor = 1.0;
+      shadow_ = saved_;
+      options_.h = s.t - saved_.t;
+      const Status shadow = nonholo::step(model, ws, shadow_, options_);
+      double noise = 0.0;
+      const double d = shadow == Status::Ok ? doubling_error(model, s, shadow_, noise) : 0.0;
+      if (shadow != Status::Ok) {
+        // The step of 2h failed where two of h did not: judge the pair by shrinking it.
+        factor = 0.5;
       } else {
-        double noise = 0.0;
-        const double e = extrapolation_error(s.t, s.q, noise);
-        // At the round-off floor the estimate cannot tell: accept, and grow slowly (the history
-        // follows); above it, the controller.
-        accept = e <= std::max(limit * h, noise);
-        factor = e <= noise ? 1.25 : adaptive_.safety * std::pow(limit * h / e, 1.0 / order_);
-        factor = std::clamp(factor, adaptive_.min_factor, adaptive_.max_factor);
-        if (accept) estimate_ = e;
+        // In units of d: the budget, or the round-off floor where the tolerance asks for less
+        // than round-off resolves (there the step settles where d meets the floor).
+        const double floor = noise * round_off_;
+        const bool below_round_off = doubling * rate * h <= floor;
+        const double allowed = below_round_off ? floor : doubling * rate * h;
+        if (d <= floor) {
+          // Too small to see: accept and grow (slowly where the floor is the limit).
+          accept = true;
+          factor = below_round_off ? 1.25 : std::numeric_limits<double>::infinity();
+        } else if (below_round_off && d <= 8.0 * floor) {
+          // The tolerance asks for less than round-off resolves: shorter steps would only add
+          // round-off. Accept near the floor; settle where d meets it.
+          accept = true;
+          factor = adaptive_.safety * std::pow(floor / d, 1.0 / order_);
+        } else if (rejected_h > 0.0 && d < 1e3 * floor && d > 4.0 * rejected_d * std::pow(h / rejected_h, order_ + 1)) {
+          // Retried shorter, the difference did not fall as a local error of order p + 1 must:
+          // it is round-off above the floor assumed. Accept, hold the step, raise the floor.
+          accept = true;
+          factor = 1.0;
+          round_off_ = std::max(round_off_, 2.0 * d / noise);
+        } else {
+          estimate_ = d / doubling;
+          accept = d <= allowed;
+          factor = adaptive_.safety * std::pow(allowed / d, 1.0 / order_);
+          if (!accept) rejected_d = d, rejected_h = h;
+        }
       }
     }
+    // Until the controller first asks for less than the fastest growth, h_initial was too small:
+    // let the pairs grow 4 times faster (each is judged like any other).
+    if (factor < adaptive_.max_factor) starting_ = false;
+    factor = std::clamp(factor, adaptive_.min_factor, (starting_ ? 4.0 : 1.0) * adaptive_.max_factor);
     if (accept) {
-      int slot = head_;  // the oldest point, once the history is full
-      if (count_ < points_)
-        slot = count_++;
-      else
-        head_ = (head_ + 1) % points_;
-      history_.col(slot) = s.q;
-      times_[slot] = s.t;
+      accepted_ += 2;
       last_h_ = h;
-      ++accepted_;
-      // A landing step (shortened) keeps the controller's size unless its estimate asks for less.
+      // A landing pair (shortened) keeps the controller's size unless its estimate asks for less.
       if (!landing)
         h_ = h * factor;
       else if (factor < 1.0)
@@ -138,9 +160,6 @@ Status AdaptiveStepper::step(const Model& model, Workspace& ws, State& s, double
     ++rejected_;
     s = saved_;
     h_ = h * factor;
-    // A history of steps much longer than the one now tried says little about it (and holds
-    // the configurations of steps that may have been too long): start it again at this size.
-    if (estimated && h_ < 0.125 * last_h_) count_ = head_ = 0;
     if (h_ < adaptive_.h_min)
       return ws.fail(Status::StepSizeTooSmall,
                      "adaptive step at t = %.17g: the error test failed down to H = %.3g, below h_min = %.3g (the "

@@ -172,7 +172,9 @@ def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=
     Every option is the command line's (None: the tool's default): dt, t_end, set (a dict of
     scene parameters, or "NAME=VALUE" strings), method, order, hitch, every (keep every K-th
     step and the last), backend, restart ("auto", 0 or K), restart_tol, monitor_every,
-    composition, error_estimate, project, tol, rotation (scenes with 3-D rigid bodies:
+    composition, error_estimate, project, tol (ARKODE's tolerance; with the reflection method
+    and order 4, 6 or 8: adaptive composed steps aiming at this error in q at t_end, dt then
+    the output interval they land on), rotation (scenes with 3-D rigid bodies:
     "moser-veselov", "moser-veselov-f" or "exponential"), accuracy (the accuracy check's
     tolerance, a fraction of the motion's extent, default 0.1; 0: off: a run above it ends with
     summary["status"] "inaccurate", its frames kept); out also writes the CLI's file (CSV,

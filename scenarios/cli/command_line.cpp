@@ -52,7 +52,7 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                   "index-reduced equations; --dt is then RK4's step or ARKODE's output interval)");
   cmd->add_flag("--project", o.config.project,
                 "rk4 and arkode-*: project onto the constraints (and hitches) after every step");
-  cmd->add_option("--tol", o.config.tol, "arkode-*: relative and absolute tolerance (default 1e-8)");
+  cmd->add_option("--tol", o.config.tol, "arkode-*: relative and absolute tolerance (default 1e-8); reflection: adaptive steps (of --order 2, 4, 6 or 8) aiming at this error in q at --t-end (--dt is then the output interval)");
   cmd->add_option("--restart", o.config.restart,
                   "the period-2 mode: auto (default: energy-exact restarts of the multipliers when the "
                   "measured parasitic amplitude exceeds --restart-tol), K (every K steps) or 0 (never: "
@@ -99,9 +99,12 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
     for (const char* option :
          {"--hitch", "--restart", "--restart-tol", "--monitor-every", "--order", "--composition", "--rotation"})
       if (cmd->count(option)) throw std::invalid_argument(std::string(option) + " applies to the reflection method only");
-  } else if (cmd->count("--tol")) {
-    throw std::invalid_argument("--tol applies to the methods arkode-dp5, arkode-verner and arkode-fehlberg8");
+  } else {
+    run.adaptive = cmd->count("--tol") > 0;
   }
+  if (cmd->count("--tol") && (run.method == "rk4" || run.method.rfind("dla", 0) == 0))
+    throw std::invalid_argument("--tol applies to the reflection method (adaptive steps) and to arkode-dp5, "
+                                "arkode-verner and arkode-fehlberg8");
   if (cmd->count("--restart-tol") && !(run.restart_tol > 0.0))
     throw std::invalid_argument("--restart-tol " + std::to_string(run.restart_tol) + ": must be positive");
   if (cmd->count("--restart-tol") && run.restart != "auto")

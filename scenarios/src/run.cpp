@@ -273,6 +273,11 @@ std::vector<SummaryField> RunSummary::fields() const {
   }
   if (has_momentum) number("momentum_drift_max", momentum_drift_max);
   if (legendre_iterations_max >= 0) integer("legendre_iterations_max", legendre_iterations_max);
+  if (adaptive_steps >= 0) {
+    number("tol", tol);
+    integer("adaptive_steps", adaptive_steps);
+    integer("rejected", rejected);
+  }
   if (rhs_evaluations >= 0) integer("rhs_evals", rhs_evaluations);
   if (factorizations >= 0) integer("factorizations", factorizations);
   if (has_error_estimate || !std::isnan(error_estimate)) number("error_estimate", error_estimate);
@@ -353,6 +358,23 @@ PreparedRun prepare_run(const RunConfig& config) {
     throw std::invalid_argument("--accuracy " + std::to_string(config.accuracy) +
                                 ": must be a fraction of the motion's extent, at least 0 (0: off)");
   r.choice.accuracy_every = config.accuracy > 0.0 ? kAccuracyEvery : 0;
+  if (config.adaptive) {
+    if (config.method != "reflection")
+      throw std::invalid_argument("adaptive steps are the reflection method's (method " + config.method + ")");
+    r.choice.adaptive.tol = config.tol;
+    // Order 2 restarts lambda~ at every step (adaptive.hpp): say so in the summary.
+    if (config.order == 2) set_restart(r.choice.rattle.restart, "1");
+    r.choice.adaptive.horizon = t_end;  // the scenes start at t = 0
+    try {
+      validate(r.choice.adaptive);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("--tol/--t-end: ") + e.what());
+    }
+    // The steps' own error control replaces the accuracy check's sampled doubling.
+    r.choice.accuracy_every = 0;
+    if (config.error_estimate)
+      throw std::invalid_argument("--error-estimate applies to fixed steps: adaptive steps (--tol) control their error");
+  }
   return r;
 }
 
@@ -607,6 +629,11 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   for (FrameSink* s : sinks) s->end();
   summary.t_final = runner->t();
   summary.rhs_evaluations = runner->rhs_evaluations();
+  if (choice.adaptive_on()) {
+    summary.tol = choice.adaptive.tol;
+    summary.adaptive_steps = runner->internal_steps();
+    summary.rejected = runner->rejected();
+  }
   summary.factorizations = runner->factorizations();
   if (summary.restarts >= 0) summary.restarts = runner->restarts();
   if (model.has_rigid_bodies()) summary.legendre_iterations_max = runner->legendre_iterations();
@@ -616,7 +643,13 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   // ARKODE stops at every output time (--dt): one step per interval means that its error
   // control wanted longer steps than --dt allowed, at the cost of evaluations.
   const long internal = runner->internal_steps();
-  if (internal >= 0 && summary.steps >= 4 && internal <= summary.steps + summary.steps / 16)
+  if (choice.adaptive_on() && summary.steps >= 4 && internal <= 2 * (summary.steps + summary.steps / 16))
+    summary.warning += (summary.warning.empty() ? "" : " ") +
+                       std::string("the adaptive steps took about one pair per output interval (") +
+                       std::to_string(internal) + " steps for " + std::to_string(summary.steps) +
+                       " intervals): --dt, the output interval, probably capped them; a larger --dt lets the error "
+                       "control choose longer steps";
+  else if (!choice.adaptive_on() && internal >= 0 && summary.steps >= 4 && internal <= summary.steps + summary.steps / 16)
     summary.warning += (summary.warning.empty() ? "" : " ") +
                        std::string("ARKODE took about one step per output interval (") + std::to_string(internal) +
                        " steps for " + std::to_string(summary.steps) +

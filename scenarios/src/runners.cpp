@@ -31,11 +31,17 @@ class ReflectionRunner final : public Runner {
       : model_(setup.model), ws_(setup.model, {c.backend, c.rattle.order > 2, false}), options_(c.rattle) {
     announce(phase, "starting");
     state_ = start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0);
+    if (c.adaptive_on()) stepper_ = std::make_unique<AdaptiveStepper>(setup.model, c.rattle, c.adaptive);
     if (c.accuracy_every > 0)
       watch_ = std::make_unique<AccuracyWatch>(setup.model, WorkspaceOptions{c.backend, c.rattle.order > 2, false},
                                                c.rattle, c.accuracy_every);
   }
-  Status advance(double) override {
+  Status advance(double t_next) override {
+    if (stepper_) {  // pairs of adaptive steps, the last landing on t_next
+      Status status = Status::Ok;
+      while (status == Status::Ok && state_.t < t_next) status = stepper_->step(model_, ws_, state_, t_next);
+      return status;
+    }
     if (!watch_) return step(model_, ws_, state_, options_);
     watch_->before_step(state_);
     const Status status = step(model_, ws_, state_, options_);
@@ -46,11 +52,12 @@ class ReflectionRunner final : public Runner {
   double t() const override { return state_.t; }
   ConstVecRef q() const override { return state_.q; }
   // Composed steps restart lambda~ at their end: the post-momentum of a composed step is not
-  // defined (nor an invariant), so energy_post is NaN there.
+  // defined (nor an invariant), so energy_post is NaN there; nor is it one for adaptive steps
+  // of order 2, whose post-momentum belongs to a step size that changes.
   Diagnostics diagnostics() override {
     // The fused chain step computed them in its sweeps (diagnose_step); others diagnose here.
     Diagnostics d = diagnose_step(model_, ws_, state_, options_.h, options_.rotation);
-    if (options_.order > 2) d.energy_post = std::numeric_limits<double>::quiet_NaN();
+    if (options_.order > 2 || stepper_) d.energy_post = std::numeric_limits<double>::quiet_NaN();
     return d;
   }
   void momentum_maps(VecRef out) override { evaluate_momentum_maps(model_, state_, out); }
@@ -66,6 +73,8 @@ class ReflectionRunner final : public Runner {
   }
   double relative_residual() override { return relative_residual_at(model_, ws_, state_.q, velocity()); }
   long factorizations() const override { return ws_.factorizations; }
+  long internal_steps() const override { return stepper_ ? stepper_->accepted() : -1; }
+  long rejected() const override { return stepper_ ? stepper_->rejected() : -1; }
   Workspace* workspace() override { return &ws_; }
 
  private:
@@ -73,6 +82,7 @@ class ReflectionRunner final : public Runner {
   Workspace ws_;
   RattleOptions options_;
   State state_;
+  std::unique_ptr<AdaptiveStepper> stepper_;
   std::unique_ptr<AccuracyWatch> watch_;
   Vector velocity_ = Vector::Zero(model_.num_velocities());
 };
@@ -325,6 +335,9 @@ std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice&
     throw std::invalid_argument("--order " + std::to_string(c.rattle.order) +
                                 " composes the explicit step, which needs a constant metric; this scene's "
                                 "depends on q (the implicit general form is of order 2)");
+  if (c.adaptive_on() && setup.model.has_configuration_metric())
+    throw std::invalid_argument("--tol: adaptive steps take the explicit step, which needs a constant metric; this "
+                                "scene's depends on q (the implicit general form takes fixed steps)");
   announce(phase, "analysing C");
   if (setup.model.has_configuration_metric()) {
     if (c.method == "reflection") return std::make_unique<ImplicitRunner>(setup, c, phase);

@@ -2,6 +2,7 @@
 // The integration methods behind `nonholo run --method`, one interface for the run loop:
 // advance one output interval, then report the configuration and the diagnostics.
 #include <nonholo/accuracy.hpp>
+#include <nonholo/adaptive.hpp>
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/reference/integrators.hpp>
@@ -31,8 +32,10 @@ class Runner {
   virtual std::string message() const = 0;
   virtual std::string backend() const = 0;
   virtual long rhs_evaluations() const { return -1; }  // -1: not counted
-  // ARKODE: its own steps so far (-1 for the fixed-step methods).
+  // ARKODE and adaptive composed steps: their own steps so far (-1 for the fixed-step methods).
   virtual long internal_steps() const { return -1; }
+  // Adaptive composed steps: the rejected pairs so far (-1 for the other methods).
+  virtual long rejected() const { return -1; }
   // Numeric factorisations of C so far (-1: not counted, the dense implicit form).
   virtual long factorizations() const { return -1; }
   // Reflection only: the parasitic amplitude measured by the last step (NaN if not measured)
@@ -64,6 +67,16 @@ struct MethodChoice {
   sparse::Backend backend = sparse::Backend::Auto;
   // Steps between two samples of the accuracy check (0: off; README "Accuracy check").
   int accuracy_every = 32;
+  // Reflection, orders 4-8: adaptive composed steps when tol > 0 (RunConfig::adaptive).
+  AdaptiveOptions adaptive = no_adaptive();
+  bool adaptive_on() const { return adaptive.tol > 0.0; }
+
+ private:
+  static AdaptiveOptions no_adaptive() {
+    AdaptiveOptions o;
+    o.tol = 0.0;
+    return o;
+  }
 };
 
 // The companion trajectory of an error estimate (--error-estimate): the same method at h/2

@@ -43,11 +43,13 @@ struct Trajectory {
   std::string message;
 };
 
-// Integrates with steps (or output intervals) of `choice`'s h, sampling every sample_dt.
+// Integrates with steps of `choice`'s h (ARKODE and adaptive steps: to each sample time),
+// sampling every sample_dt.
 Trajectory integrate(const SceneSetup& setup, const MethodChoice& choice, double t_end, double sample_dt) {
   Trajectory out;
   auto runner = make_runner(setup, choice);
-  const double dt = choice.method.rfind("arkode", 0) == 0 ? sample_dt : choice.rattle.h;
+  const bool own_steps = choice.method.rfind("arkode", 0) == 0 || choice.adaptive_on();
+  const double dt = own_steps ? sample_dt : choice.rattle.h;
   const long steps = std::lround(t_end / dt), every = std::max(1L, std::lround(sample_dt / dt));
   if (std::abs(static_cast<double>(every) * dt - sample_dt) > 1e-9 * sample_dt)
     throw std::logic_error("work-precision: the step " + std::to_string(dt) + " does not divide the sample interval");
@@ -72,6 +74,7 @@ Trajectory integrate(const SceneSetup& setup, const MethodChoice& choice, double
   out.rhs = runner->rhs_evaluations();
   out.factorizations = runner->factorizations();
   out.restarts = runner->restarts();
+  if (choice.adaptive_on()) out.steps = runner->internal_steps();  // accepted, not output intervals
   return out;
 }
 
@@ -90,12 +93,15 @@ struct Case {
   std::string scene;
   std::vector<std::string> sets;
   std::string label;
+  HitchMode hitch = HitchMode::Holonomic;  // the reflection method's
 };
 
 // The oracle's configuration at the sample times: the exact solution where DESIGN.md
-// section 6 gives one, otherwise ARKODE (Verner 6(5)) at tolerance `tol`.
+// section 6 gives one, otherwise ARKODE Fehlberg 8(7) at tolerance `tol` (at 1e-14 it meets
+// order 8 at H = 0.05 to 5e-12 on a 100-body chain at t = 100, bench_time_to_error; Verner
+// 6(5), the oracle before, was 1e-9 off there).
 std::vector<Vector> oracle(const Case& c, const SceneSetup& setup, double t_end, double sample_dt,
-                           double tol = 1e-12) {
+                           double tol = 1e-14) {
   std::vector<Vector> out;
   const long n = std::lround(t_end / sample_dt);
   if (c.scene == "sleigh" && c.sets.empty()) {
@@ -113,7 +119,7 @@ std::vector<Vector> oracle(const Case& c, const SceneSetup& setup, double t_end,
     return out;
   }
   MethodChoice reference;
-  reference.method = "arkode-verner";
+  reference.method = "arkode-fehlberg8";
   reference.reference.tol = tol;
   const Trajectory t = integrate(setup, reference, t_end, sample_dt);
   if (t.status != Status::Ok) throw std::runtime_error("oracle failed for " + c.label + ": " + t.message);
@@ -132,16 +138,23 @@ struct MethodPoint {
   std::string method;
   bool project;
   double h, tol;
-  int order = 2;  // reflection: 4 and 6 compose double steps (h is the composed step)
+  int order = 2;  // reflection: 4, 6 and 8 compose plain steps (h is the composed step)
+  double horizon = 0.0;  // reflection: adaptive steps at `tol` over this run length (0: fixed)
 };
 
-// The method's name in the CSV files: reflection-o4 and -o6 for the composed orders.
-std::string label_of(const std::string& method, int order) {
-  return order > 2 ? method + "-o" + std::to_string(order) : method;
+// The method's name in the CSV files: reflection-o4 ... -o8 for the composed orders,
+// reflection-a2 ... -a8 for adaptive steps.
+std::string label_of(const std::string& method, int order, bool adaptive = false) {
+  return adaptive ? method + "-a" + std::to_string(order) : order > 2 ? method + "-o" + std::to_string(order) : method;
 }
+std::string label_of(const MethodPoint& pt) { return label_of(pt.method, pt.order, pt.horizon > 0.0); }
 
 MethodChoice choice_of(const MethodPoint& pt) {
   MethodChoice choice;
+  if (pt.horizon > 0.0) {
+    choice.adaptive.tol = pt.tol;
+    choice.adaptive.horizon = pt.horizon;
+  }
   choice.method = pt.method;
   choice.rattle.h = pt.h > 0.0 ? pt.h : 0.01;
   choice.rattle.order = pt.order;
@@ -164,7 +177,10 @@ void work_precision_table(const WorkPrecisionConfig& config, std::ostream& log) 
   std::vector<Case> cases{{"particle", {}, "particle"},
                           {"sleigh", {}, "sleigh"},
                           {"snakeboard", {}, "snakeboard"},
-                          {"sleigh_chain", {"bodies=100"}, "sleigh_chain_100"}};
+                          {"sleigh_chain", {"bodies=100"}, "sleigh_chain_100"},
+                          {"sleigh_chain", {"bodies=10"}, "sleigh_chain_10_oneform", HitchMode::OneForm},
+                          {"sleigh_chain", {"bodies=100"}, "sleigh_chain_100_oneform", HitchMode::OneForm},
+                          {"wheeled_train", {"bodies=20"}, "wheeled_train_20"}};
   std::vector<double> steps{0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
   std::vector<double> composed_steps{0.5, 0.25, 0.1, 0.05, 0.025, 0.01};
   std::vector<double> tols{1e-4, 1e-6, 1e-8, 1e-10, 1e-12};
@@ -178,9 +194,13 @@ void work_precision_table(const WorkPrecisionConfig& config, std::ostream& log) 
   for (const char* m : {"reflection", "dla-midpoint", "dla-left", "rk4"})
     for (double h : steps) points.push_back({m, false, h, 0.0});
   for (double h : steps) points.push_back({"rk4", true, h, 0.0});
-  for (int order : {4, 6})
+  for (int order : {4, 6, 8})
     for (double h : composed_steps) points.push_back({"reflection", false, h, 0.0, order});
-  for (const char* m : {"arkode-dp5", "arkode-verner"})
+  // Adaptive steps; orders 2 and 4 not at tolerances that would take 10^5 steps or more.
+  for (int order : {2, 4, 6, 8})
+    for (double tol : tols)
+      if (tol >= (order == 2 ? 1e-6 : order == 4 ? 1e-10 : 0.0)) points.push_back({"reflection", false, 0.0, tol, order, t_end});
+  for (const char* m : {"arkode-dp5", "arkode-verner", "arkode-fehlberg8"})
     for (double tol : tols) points.push_back({m, false, 0.0, tol});
   for (double tol : tols) points.push_back({"arkode-dp5", true, 0.0, tol});
 
@@ -191,7 +211,9 @@ void work_precision_table(const WorkPrecisionConfig& config, std::ostream& log) 
     const SceneSetup setup = build(c.scene, c.sets);
     const auto truth = oracle(c, setup, t_end, sample_dt);
     for (const MethodPoint& pt : points) {
-      const Trajectory tr = integrate(setup, choice_of(pt), t_end, sample_dt);
+      MethodChoice choice = choice_of(pt);
+      choice.rattle.hitch = c.hitch;
+      const Trajectory tr = integrate(setup, choice, t_end, sample_dt);
       const double error = max_error(tr, truth);
       double energy = 0.0, energy_post = 0.0, residual = 0.0;
       const Diagnostics& d0 = tr.samples.front().d;
@@ -201,10 +223,10 @@ void work_precision_table(const WorkPrecisionConfig& config, std::ostream& log) 
                                                  : std::max(energy_post, relative(s.d.energy_post, d0.energy_post));
         residual = std::max(residual, s.d.residual);
       }
-      csv << c.label << "," << label_of(pt.method, pt.order) << "," << (pt.project ? 1 : 0) << "," << pt.h << ","
+      csv << c.label << "," << label_of(pt) << "," << (pt.project ? 1 : 0) << "," << pt.h << ","
           << pt.tol << "," << tr.cpu_s << "," << tr.rhs << "," << tr.factorizations << "," << tr.steps << "," << error << "," << energy << "," << energy_post
           << "," << residual << "," << to_string(tr.status) << "\n";
-      log << "wp " << c.label << " " << label_of(pt.method, pt.order) << (pt.project ? "+project" : "") << " h=" << pt.h
+      log << "wp " << c.label << " " << label_of(pt) << (pt.project ? "+project" : "") << " h=" << pt.h
           << " tol=" << pt.tol << ": error " << error << ", cpu " << tr.cpu_s << " s\n";
     }
   }

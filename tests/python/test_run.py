@@ -49,7 +49,7 @@ def test_arrays_have_the_documented_shapes_and_types():
 @pytest.mark.parametrize("kwargs, cli_args", [
     ({"dt": -1.0}, ["--dt", "-1.0"]),
     ({"set": {"nope": 1}}, ["--set", "nope=1"]),
-    ({"tol": 1e-3}, ["--tol", "0.001"]),
+    ({"tol": 2.0}, ["--tol", "2.0"]),
     ({"order": 3}, ["--order", "3"]),
     ({"hitch": "rigid"}, ["--hitch", "rigid"]),
     ({"restart": "sometimes"}, ["--restart", "sometimes"]),
@@ -99,6 +99,17 @@ def test_an_inaccurate_run_keeps_its_frames_and_says_so():
         nonholo.run("sleigh", dt=2.0, check=True)
     assert nonholo.run("sleigh", dt=2.0, accuracy=0).status == "ok"
     assert nonholo.run("sleigh").summary["error_estimate"] < 1e-3
+
+
+def test_tol_with_a_composed_order_takes_adaptive_steps_that_land_on_the_frames():
+    # Against ARKODE's Fehlberg 8(7) at 1e-14 (another method): within 10 tol at every frame.
+    r = nonholo.run("sleigh", order=6, tol=1e-9, dt=0.5, t_end=10)
+    ref = nonholo.run("sleigh", method="arkode-fehlberg8", tol=1e-14, dt=0.5, t_end=10)
+    assert r.status == "ok" and r.summary["tol"] == 1e-9
+    assert r.summary["steps"] == 20 and r.summary["adaptive_steps"] > 20 and r.summary["rejected"] >= 0
+    assert np.array_equal(r.t, ref.t)
+    error = np.abs(r.q - ref.q).max()
+    assert 1e-10 < error < 1e-8
 
 
 def test_batch_gives_the_clis_table(tmp_path):

@@ -58,7 +58,10 @@ struct RunConfig {
   // exceeds this fraction of the motion's extent (the widest range a coordinate swept). 0: off.
   double accuracy = 0.1;
   bool project = false;  // reference methods: project onto the constraints after each step
-  double tol = 1e-8;     // ARKODE methods: relative and absolute tolerance
+  double tol = 1e-8;     // ARKODE methods: relative and absolute tolerance; see adaptive
+  // Reflection: adaptive steps (nonholo/adaptive.hpp; order 2 restarts at every step) aiming at
+  // an error `tol` in q at t_end; dt is then the output interval, which the steps land on.
+  bool adaptive = false;
 };
 
 // One key=value of the summary line, with its value unrounded (the line prints 6 digits).
@@ -108,6 +111,11 @@ struct RunSummary {
   double energy_balance_err_max = 0.0;
   std::string warning;  // what the user should know about a run that ended ok
   long rhs_evaluations = -1;  // reference methods: evaluations of the equations
+  // Adaptive composed steps (RunConfig::adaptive): the tolerance, the accepted composed steps
+  // and the rejected pairs (-1: fixed steps). steps counts the output intervals then.
+  double tol = std::numeric_limits<double>::quiet_NaN();
+  long adaptive_steps = -1;
+  long rejected = -1;
   long factorizations = -1;   // numeric factorisations of C (-1: not counted)
   // The estimated max error in q (max norm). With RunConfig::error_estimate: max over the output
   // times of |q - q^|_inf against the companion trajectory q^, scaled by 2^p / (2^p - 1) for a
