@@ -156,4 +156,39 @@ void AccuracyWatch::finish_shadow(const State& s) {
   feed(model_, estimate_, s.t, options_.h / 2, shadow_.q, s.q, shadow_.p, s.p, velocity_, difference_);
 }
 
+void DoublingEstimate::save(OutArchive& a) const {
+  a.tag("doubling-estimate");
+  a(every_), a(factor_), a(q_min_), a(q_max_);
+  error_.save(a);
+  a(step_), a(pending_at_), a(next_at_), a(interval_), a(last_end_), a(last_dq_), a(last_dv_), a(last_t_);
+  a(last_fast_), a(t_), a(local_max_), a(samples_), a(failed_), a(transients_), a(fast_), a(first_transient_t_);
+  a(first_failure_);
+}
+
+void DoublingEstimate::load(InArchive& a) {
+  a.tag("doubling-estimate");
+  int every = 0;
+  double factor = 0.0;
+  a(every), a(factor);
+  if (every != every_ || factor != factor_)
+    throw std::runtime_error("checkpoint: the accuracy check's sampling (every " + std::to_string(every) +
+                             ") or order differs from this run's (every " + std::to_string(every_) + ")");
+  a(q_min_), a(q_max_);
+  error_.load(a);
+  a(step_), a(pending_at_), a(next_at_), a(interval_), a(last_end_), a(last_dq_), a(last_dv_), a(last_t_);
+  a(last_fast_), a(t_), a(local_max_), a(samples_), a(failed_), a(transients_), a(fast_), a(first_transient_t_);
+  a(first_failure_);
+  last_q_ = nullptr;
+}
+
+void AccuracyWatch::save(OutArchive& a) const {
+  estimate_.save(a);
+  nonholo::save(a, shadow_);
+}
+
+void AccuracyWatch::load(InArchive& a) {
+  estimate_.load(a);
+  nonholo::load(a, shadow_);
+}
+
 }  // namespace nonholo

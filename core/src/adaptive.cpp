@@ -168,4 +168,25 @@ Status AdaptiveStepper::step(const Model& model, Workspace& ws, State& s, double
   }
 }
 
+void AdaptiveStepper::save(OutArchive& a) const {
+  a.tag("adaptive");
+  a(order_), a(adaptive_.tol), a(adaptive_.horizon);
+  a(h_), a(last_h_), a(accepted_), a(rejected_), a(starting_), a(round_off_), a(estimate_);
+}
+
+void AdaptiveStepper::load(InArchive& a) {
+  a.tag("adaptive");
+  int order = 0;
+  double tol = 0.0, horizon = 0.0;
+  a(order), a(tol), a(horizon);
+  if (order != order_ || tol != adaptive_.tol || horizon != adaptive_.horizon) {
+    std::ostringstream os;
+    os.precision(17);
+    os << "checkpoint: adaptive steps of order " << order << ", tol " << tol << " over " << horizon
+       << "; this run's are of order " << order_ << ", tol " << adaptive_.tol << " over " << adaptive_.horizon;
+    throw std::runtime_error(os.str());
+  }
+  a(h_), a(last_h_), a(accepted_), a(rejected_), a(starting_), a(round_off_), a(estimate_);
+}
+
 }  // namespace nonholo

@@ -107,6 +107,44 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
   return Status::Ok;
 }
 
+void Workspace::save_held(OutArchive& a) const {
+  a.tag("workspace");
+  a(key_valid_), a(mu_valid_), a(factor_valid_), a(sincos_valid_);
+  if (key_valid_) a(mu_q_);
+  if (mu_valid_) a(mu_values);
+  if (sincos_valid_) a(chain_sincos);
+  std::vector<double>* numbers = factor_valid_ && factor_ ? factor_->numeric_state() : nullptr;
+  a(numbers != nullptr);
+  if (numbers) a(Eigen::Map<const Vector>(numbers->data(), static_cast<Eigen::Index>(numbers->size())));
+}
+
+void Workspace::load_held(InArchive& a, double min_pivot_ratio) {
+  a.tag("workspace");
+  bool key = false, mu = false, factor = false, sincos = false, numbers = false;
+  a(key), a(mu), a(factor), a(sincos);
+  forget_one_forms();
+  if (key) a(mu_q_);
+  if (mu) a(mu_values);
+  if (sincos) a(chain_sincos);
+  a(numbers);
+  std::vector<double>* state = factor_ ? factor_->numeric_state() : nullptr;
+  if (numbers) {
+    if (!state) throw std::runtime_error("checkpoint: its factorisation is of a banded backend, this run's is not");
+    a(Eigen::Map<Vector>(state->data(), static_cast<Eigen::Index>(state->size())));
+  }
+  key_valid_ = key;
+  mu_valid_ = mu;
+  sincos_valid_ = sincos;
+  if (factor && !numbers) {  // factorise again (the step's own code for these backends), uncounted
+    const long counted = factorizations;
+    const Status s = key && mu ? factorize(min_pivot_ratio) : Status::Ok;
+    factorizations = counted;
+    if (s != Status::Ok) throw std::runtime_error(std::string("checkpoint: the saved state does not factorise: ") + message());
+    factor = key && mu;
+  }
+  factor_valid_ = factor;
+}
+
 bool Workspace::sincos_hold(ConstVecRef q) const {
   return sincos_valid_ && key_valid_ &&
          std::memcmp(q.data(), mu_q_.data(), sizeof(double) * model_->num_configuration()) == 0;

@@ -210,4 +210,28 @@ Status Integrator::advance_to(double t) {
   return Status::Ok;
 }
 
+namespace {
+void refuse_arkode(Method method) {
+  if (method != Method::Rk4)
+    throw std::runtime_error(std::string("checkpoint: ") + to_string(method) +
+                             ": ARKODE keeps its step-size controller's history inside SUNDIALS, which cannot save "
+                             "it: a resumed run would not be the same trajectory (checkpoints work for reflection, "
+                             "dla-*, rk4)");
+}
+}  // namespace
+
+void Integrator::save(OutArchive& a) const {
+  refuse_arkode(method_);
+  a.tag("rk4");
+  a(t_), a(y_), a(steps_), a(rhs_), a(trial_rhs_), a(ode_.workspace().factorizations);
+  ode_.workspace().save_held(a);
+}
+
+void Integrator::load(InArchive& a) {
+  refuse_arkode(method_);
+  a.tag("rk4");
+  a(t_), a(y_), a(steps_), a(rhs_), a(trial_rhs_), a(ode_.workspace().factorizations);
+  ode_.workspace().load_held(a, 0.0);  // (a projected step leaves C(q) for the next evaluation)
+}
+
 }  // namespace nonholo::reference

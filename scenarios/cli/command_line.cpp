@@ -10,6 +10,8 @@
 #include "../src/interrupt.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <ostream>
 #include <sstream>
 #include <stdexcept>
@@ -36,8 +38,7 @@ struct RunOptions {
 void add_run_options(CLI::App* cmd, RunOptions& o) {
   cmd->add_option("scene", o.config.scene,
                   "scene name (particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train, suslov, "
-                  "veselova, chaplygin_ball, ball_chain, rolling_disk) or a scene file FILE.json")
-      ->required();
+                  "veselova, chaplygin_ball, ball_chain, rolling_disk) or a scene file FILE.json");
   cmd->add_option("--dt", o.config.dt, "time step (default: the scene's)");
   cmd->add_option("--t-end", o.config.t_end, "final time (default: the scene's)");
   cmd->add_option("--set", o.config.assignments, "set a scene parameter, NAME=VALUE (repeatable)")
@@ -93,6 +94,8 @@ void check_batch_size(const CLI::App* cmd, const BatchConfig& batch) {
 // Checks that need to know which options were given; fills the enums.
 void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   RunConfig& run = o.config;
+  if (run.scene.empty() && run.resume_path.empty())
+    throw std::invalid_argument("scene is required: a scene name, a scene file FILE.json (or --resume FILE.h5)");
   if (cmd->count("--dt") && !(run.dt > 0.0))
     throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
   if (run.method != "reflection") {
@@ -131,11 +134,62 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   run.hitch = hitch_mode_from_string(o.hitch);
 }
 
+bool is_checkpoint_path(const std::string& path) {
+  auto ends = [&](const char* e, std::size_t n) { return path.size() > n && path.compare(path.size() - n, n, e) == 0; };
+  return ends(".h5", 3) || ends(".hdf5", 5);
+}
+
+// "--checkpoint-every": N steps, or Ns seconds.
+void set_checkpoint_every(RunConfig& run, const std::string& text) {
+  const bool seconds = !text.empty() && text.back() == 's';
+  const std::string number = seconds ? text.substr(0, text.size() - 1) : text;
+  char* end = nullptr;
+  const double value = std::strtod(number.c_str(), &end);
+  if (number.empty() || *end != '\0' || !(value > 0.0) || !std::isfinite(value) ||
+      (!seconds && value != std::floor(value)))
+    throw std::invalid_argument("--checkpoint-every '" + text +
+                                "': expected a whole number of steps (100) or of seconds with an s (60s)");
+  if (seconds)
+    run.checkpoint_every_seconds = value;
+  else
+    run.checkpoint_every_steps = static_cast<long>(value);
+}
+
+// Checks of the run command's own options (checkpoints): which go together.
+void finish_run_command(const CLI::App* cmd, RunConfig& run, const std::string& every) {
+  if (!every.empty()) {
+    if (run.checkpoint_path.empty() && run.resume_path.empty())
+      throw std::invalid_argument("--checkpoint-every needs --checkpoint FILE.h5 (or --resume FILE.h5)");
+    set_checkpoint_every(run, every);
+  }
+  if (!run.checkpoint_path.empty() && !is_checkpoint_path(run.checkpoint_path))
+    throw std::invalid_argument("--checkpoint " + run.checkpoint_path + ": a checkpoint is an HDF5 file: name it .h5");
+  if (run.resume_path.empty()) return;
+  // The run's options come from the checkpoint; only where to end and where to checkpoint may change.
+  for (const CLI::Option* option : cmd->get_options()) {
+    const std::string name = option->get_name();
+    if (option->count() == 0 || name == "--resume" || name == "--t-end" || name == "--checkpoint" ||
+        name == "--checkpoint-every" || name == "--help")
+      continue;
+    throw std::invalid_argument((name == "scene" ? std::string("a scene") : name) +
+                                " with --resume: the run's options come from the checkpoint (only --t-end, "
+                                "--checkpoint and --checkpoint-every may be given)");
+  }
+}
+
 // The options of the run and batch commands, on their subcommands.
-void add_run_command(CLI::App* cmd, RunOptions& run) {
+void add_run_command(CLI::App* cmd, RunOptions& run, std::string& checkpoint_every) {
   add_run_options(cmd, run);
   cmd->add_option("--out", run.config.csv_path, "write the trajectory to this CSV file");
   cmd->add_option("--every", run.config.every, "write every K-th step to the CSV (default 1)");
+  cmd->add_option("--checkpoint", run.config.checkpoint_path,
+                  "write the run's whole state to this HDF5 file at its end (also when it fails or is "
+                  "interrupted), atomically; --resume continues it bit for bit");
+  cmd->add_option("--checkpoint-every", checkpoint_every,
+                  "also write the checkpoint every N steps, or every N seconds with Ns (60s)");
+  cmd->add_option("--resume", run.config.resume_path,
+                  "continue the run saved in this checkpoint (its options; --t-end may extend it); the output "
+                  "file continues from where the checkpoint left it");
 }
 
 void add_batch_command(CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch) {
@@ -209,8 +263,9 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   app.require_subcommand(1);
 
   RunOptions run;
+  std::string checkpoint_every;
   auto* run_cmd = app.add_subcommand("run", kRunHelp);
-  add_run_command(run_cmd, run);
+  add_run_command(run_cmd, run, checkpoint_every);
 
   RunOptions batch_run;
   BatchConfig batch;
@@ -268,6 +323,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       return 0;
     }
     finish_run_options(run_cmd, run);
+    finish_run_command(run_cmd, run.config, checkpoint_every);
     InterruptScope on_ctrl_c;
     const RunSummary summary = run_scene(run.config);
     out << summary.line() << std::endl;
@@ -288,10 +344,12 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
 RunConfig parse_run_arguments(const std::vector<std::string>& args) {
   CLI::App app;
   RunOptions run;
+  std::string checkpoint_every;
   auto* cmd = app.add_subcommand("run", kRunHelp);
-  add_run_command(cmd, run);
+  add_run_command(cmd, run, checkpoint_every);
   parse_command(app, "run", args);
   finish_run_options(cmd, run);
+  finish_run_command(cmd, run.config, checkpoint_every);
   return run.config;
 }
 

@@ -96,6 +96,20 @@ std::string pack_row(const Row& row) {
   return std::move(w.bytes);
 }
 
+std::string pack_summary(const RunSummary& summary) {
+  Writer w;
+  fields(w, summary);
+  return std::move(w.bytes);
+}
+
+RunSummary unpack_summary(const std::string& bytes) {
+  Reader r(bytes);
+  RunSummary s;
+  fields(r, s);
+  if (!r.done()) throw std::logic_error("run summary: trailing bytes");
+  return s;
+}
+
 Row unpack_row(const std::string& bytes) {
   Reader r(bytes);
   Row row;

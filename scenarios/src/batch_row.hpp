@@ -23,4 +23,8 @@ std::string pack_row(const Row& row);
 // Throws std::logic_error on bytes that pack_row did not make.
 Row unpack_row(const std::string& bytes);
 
+// The summary alone, every field (checkpoints).
+std::string pack_summary(const RunSummary& summary);
+RunSummary unpack_summary(const std::string& bytes);
+
 }  // namespace nonholo::scenarios

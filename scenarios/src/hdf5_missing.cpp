@@ -1,5 +1,6 @@
 // HDF5 output when nonholo was built without HDF5 (NONHOLO_WITH_HDF5=OFF): asking for it is a
 // clear error at set-up, never a CSV in disguise.
+#include "checkpoint/checkpoint_file.hpp"
 #include "hdf5_output.hpp"
 
 #include <stdexcept>
@@ -19,12 +20,25 @@ struct Hdf5RunWriter::Impl {};
 Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig&, const std::string&, const Parameters&) {
   missing(path);
 }
+Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long) { missing(path); }
 Hdf5RunWriter::~Hdf5RunWriter() = default;
+long Hdf5RunWriter::flush_to_disk() { return 0; }
 void Hdf5RunWriter::begin(const std::vector<std::string>&) {}
 void Hdf5RunWriter::velocities(const std::vector<std::string>&) {}
 void Hdf5RunWriter::frame(double, ConstVecRef, ConstVecRef, const Diagnostics&) {}
 void Hdf5RunWriter::end() {}
 void Hdf5RunWriter::finish(const RunSummary&) {}
+
+void write_checkpoint(const std::string& path, const CheckpointInfo&, const std::string&, ConstVecRef, ConstVecRef) {
+  throw std::invalid_argument("--checkpoint " + path +
+                              ": this nonholo was built without HDF5, which checkpoints need (install libhdf5-dev, "
+                              "Debian, and rebuild)");
+}
+std::string read_checkpoint(const std::string& path, CheckpointInfo*) {
+  throw std::invalid_argument("--resume " + path +
+                              ": this nonholo was built without HDF5, which checkpoints need (install libhdf5-dev, "
+                              "Debian, and rebuild)");
+}
 
 void write_batch_hdf5(const std::string& path, const BatchConfig&, const std::string&, const BatchResult&) {
   missing(path);

@@ -2,6 +2,7 @@
 // owned by an RAII holder; HDF5's own error printing is silenced inside our calls (a failure
 // becomes our exception with the path and what failed, not a stack dump on stderr).
 #include "hdf5_output.hpp"
+#include "hdf5_util.hpp"
 
 #include <hdf5.h>
 
@@ -14,101 +15,6 @@
 
 namespace nonholo::scenarios {
 namespace {
-
-// An hid_t closed by its kind's close function.
-class Handle {
- public:
-  Handle() = default;
-  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  Handle(Handle&& o) noexcept : id_(std::exchange(o.id_, H5I_INVALID_HID)), close_(o.close_) {}
-  Handle& operator=(Handle&& o) noexcept {
-    reset();
-    id_ = std::exchange(o.id_, H5I_INVALID_HID);
-    close_ = o.close_;
-    return *this;
-  }
-  ~Handle() { reset(); }
-  hid_t get() const { return id_; }
-  explicit operator bool() const { return id_ >= 0; }
-  // Closes now; false when HDF5 reports an error (a file whose last writes failed).
-  bool reset() {
-    bool ok = true;
-    if (id_ >= 0 && close_) ok = close_(id_) >= 0;
-    id_ = H5I_INVALID_HID;
-    return ok;
-  }
-
- private:
-  hid_t id_ = H5I_INVALID_HID;
-  herr_t (*close_)(hid_t) = nullptr;
-};
-
-// HDF5 prints its error stack on stderr by default: off while we call it.
-class Quiet {
- public:
-  Quiet() { H5Eget_auto2(H5E_DEFAULT, &func_, &data_), H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
-  ~Quiet() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
-
- private:
-  H5E_auto2_t func_ = nullptr;
-  void* data_ = nullptr;
-};
-
-[[noreturn]] void fail(const std::string& path, const std::string& what) {
-  throw std::runtime_error("error writing '" + path + "': HDF5 could not " + what);
-}
-
-Handle check(hid_t id, herr_t (*close)(hid_t), const std::string& path, const std::string& what) {
-  if (id < 0) fail(path, what);
-  return Handle(id, close);
-}
-
-void check(herr_t status, const std::string& path, const std::string& what) {
-  if (status < 0) fail(path, what);
-}
-
-Handle create_file(const std::string& path) {
-  const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (f < 0) throw std::invalid_argument("cannot open '" + path + "' for writing (HDF5)");
-  return Handle(f, H5Fclose);
-}
-
-// A variable-length UTF-8 string type (what h5py reads as str).
-Handle string_type(const std::string& path) {
-  Handle t = check(H5Tcopy(H5T_C_S1), H5Tclose, path, "make a string type");
-  check(H5Tset_size(t.get(), H5T_VARIABLE), path, "make a string type");
-  check(H5Tset_cset(t.get(), H5T_CSET_UTF8), path, "make a string type");
-  return t;
-}
-
-void attribute(hid_t on, const std::string& path, const std::string& name, double value) {
-  Handle space = check(H5Screate(H5S_SCALAR), H5Sclose, path, "make a scalar space");
-  Handle a = check(H5Acreate2(on, name.c_str(), H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                   path, "create attribute " + name);
-  check(H5Awrite(a.get(), H5T_NATIVE_DOUBLE, &value), path, "write attribute " + name);
-}
-
-void attribute(hid_t on, const std::string& path, const std::string& name, long value) {
-  const std::int64_t v = value;
-  Handle space = check(H5Screate(H5S_SCALAR), H5Sclose, path, "make a scalar space");
-  Handle a = check(H5Acreate2(on, name.c_str(), H5T_STD_I64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                   path, "create attribute " + name);
-  check(H5Awrite(a.get(), H5T_NATIVE_INT64, &v), path, "write attribute " + name);
-}
-
-void attribute(hid_t on, const std::string& path, const std::string& name, const std::string& value) {
-  Handle type = string_type(path);
-  Handle space = check(H5Screate(H5S_SCALAR), H5Sclose, path, "make a scalar space");
-  Handle a = check(H5Acreate2(on, name.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose, path,
-                   "create attribute " + name);
-  const char* text = value.c_str();
-  check(H5Awrite(a.get(), type.get(), &text), path, "write attribute " + name);
-}
-
-Handle group(hid_t file, const std::string& path, const char* name) {
-  return check(H5Gcreate2(file, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, path,
-               std::string("create group ") + name);
-}
 
 // The run's options and the scene on the root, the scene's parameters on /parameters.
 void describe_run(hid_t file, const std::string& path, const RunConfig& c, const std::string& scene,
@@ -165,6 +71,31 @@ class Growing {
     data_ = check(H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, plist.get(), H5P_DEFAULT),
                   H5Dclose, path, "create " + name_);
   }
+  // An existing dataset (a run continued from a checkpoint), cut back to its first `rows` rows;
+  // throws std::invalid_argument when it is missing or holds fewer.
+  static Growing reopen(hid_t file, const std::string& path, const char* name, hsize_t columns, hsize_t rows) {
+    Growing g;
+    g.path_ = &path;
+    g.name_ = name;
+    g.columns_ = columns;
+    if (H5Lexists(file, name, H5P_DEFAULT) <= 0)
+      throw std::invalid_argument("cannot continue '" + path + "': it has no dataset " + name);
+    g.data_ = check(H5Dopen2(file, name, H5P_DEFAULT), H5Dclose, path, std::string("open ") + name);
+    Handle space = check(H5Dget_space(g.data_.get()), H5Sclose, path, std::string("read the size of ") + name);
+    hsize_t dims[2] = {0, 0};
+    const int rank = H5Sget_simple_extent_ndims(space.get());
+    H5Sget_simple_extent_dims(space.get(), dims, nullptr);
+    if (rank != (columns > 0 ? 2 : 1) || (columns > 0 && dims[1] != columns) || dims[0] < rows)
+      throw std::invalid_argument("cannot continue '" + path + "': its " + name + " holds " + std::to_string(dims[0]) +
+                                  " frames where the checkpoint wrote " + std::to_string(rows) +
+                                  " (or has another shape): not the output of this run");
+    const hsize_t size[2] = {rows, columns};
+    check(H5Dset_extent(g.data_.get(), size), path, std::string("cut back ") + name);
+    g.rows_ = rows;
+    return g;
+  }
+  hsize_t rows() const { return rows_; }
+
   // Appends `count` rows from `values` (row-major).
   void append(const double* values, hsize_t count) {
     if (count == 0) return;
@@ -221,6 +152,8 @@ struct Hdf5RunWriter::Impl {
   Handle file;
   hsize_t n = 0, buffer_rows = 1, buffered = 0;
   std::vector<std::string> velocities;  // names of p's entries (FrameSink::velocities)
+  bool reopened = false;                 // continuing a file (its datasets exist)
+  hsize_t frames_at_open = 0;            // then: the frames the checkpoint counted
   Growing t, q, p, energy, energy_post, residual, gap;
   std::vector<double> bt, bq, bp, be, bep, br, bg;  // frames not yet written
 
@@ -256,6 +189,18 @@ Hdf5RunWriter::~Hdf5RunWriter() {
   }
 }
 
+Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long frames) : impl_(std::make_unique<Impl>()) {
+  const Quiet quiet;
+  impl_->path = path;
+  impl_->reopened = true;
+  impl_->frames_at_open = static_cast<hsize_t>(frames);
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (f < 0) throw std::invalid_argument("cannot continue '" + path + "': cannot open it for writing (HDF5)");
+  impl_->file = Handle(f, H5Fclose);
+  // The summary of the run that wrote the checkpoint's end, if it finished: finish() writes anew.
+  if (H5Lexists(f, "summary", H5P_DEFAULT) > 0) check(H5Ldelete(f, "summary", H5P_DEFAULT), path, "remove /summary");
+}
+
 void Hdf5RunWriter::begin(const std::vector<std::string>& coordinates) {
   const Quiet quiet;
   Impl& w = *impl_;
@@ -263,6 +208,17 @@ void Hdf5RunWriter::begin(const std::vector<std::string>& coordinates) {
   w.n = coordinates.size();
   // About 1 MB of q a chunk (at least one frame); the 1-D series chunk as many frames.
   w.buffer_rows = std::max<hsize_t>(1, (hsize_t{1} << 17) / std::max<hsize_t>(1, w.n));
+  if (w.reopened) {
+    const hsize_t nv = w.velocities.empty() ? w.n : w.velocities.size(), rows = w.frames_at_open;
+    w.t = Growing::reopen(f, w.path, "t", 0, rows);
+    w.q = Growing::reopen(f, w.path, "q", w.n, rows);
+    w.p = Growing::reopen(f, w.path, "p", nv, rows);
+    w.energy = Growing::reopen(f, w.path, "energy", 0, rows);
+    w.energy_post = Growing::reopen(f, w.path, "energy_post", 0, rows);
+    w.residual = Growing::reopen(f, w.path, "residual", 0, rows);
+    w.gap = Growing::reopen(f, w.path, "gap", 0, rows);
+    return;
+  }
   w.t = Growing(f, w.path, "t", 0, w.buffer_rows);
   w.q = Growing(f, w.path, "q", w.n, w.buffer_rows);
   // p has n_v entries: fewer than q's n_q with rigid bodies (their velocity names then apart).
@@ -296,6 +252,14 @@ void Hdf5RunWriter::frame(double t, ConstVecRef q, ConstVecRef p, const Diagnost
 void Hdf5RunWriter::end() {
   const Quiet quiet;
   impl_->flush();
+}
+
+long Hdf5RunWriter::flush_to_disk() {
+  const Quiet quiet;
+  Impl& w = *impl_;
+  w.flush();
+  check(H5Fflush(w.file.get(), H5F_SCOPE_GLOBAL), w.path, "flush the file");
+  return static_cast<long>(w.t.rows());
 }
 
 void Hdf5RunWriter::finish(const RunSummary& summary) {

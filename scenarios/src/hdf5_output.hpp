@@ -29,11 +29,17 @@ class Hdf5RunWriter final : public FrameSink {
   // writes the attributes known before the run.
   Hdf5RunWriter(const std::string& path, const RunConfig& config, const std::string& scene,
                 const Parameters& params);
+  // Continues the file of a run resumed from a checkpoint that counted `frames` frames: frames
+  // after those are dropped, the summary is written anew by finish(). Throws
+  // std::invalid_argument when the file is missing, unwritable or holds fewer frames.
+  Hdf5RunWriter(const std::string& path, long frames);
   ~Hdf5RunWriter() override;  // closes the file if finish() did not
   void begin(const std::vector<std::string>& coordinates) override;
   void velocities(const std::vector<std::string>& names) override;
   void frame(double t, ConstVecRef q, ConstVecRef p, const Diagnostics& d) override;
   void end() override;  // writes the buffered frames
+  // Writes the buffered frames and flushes the file (a checkpoint's moment): the frames so far.
+  long flush_to_disk();
   // The summary's attributes, then closes the file; throws std::runtime_error on a write error.
   void finish(const RunSummary& summary);
 

@@ -2,6 +2,9 @@
 
 #include <nonholo/scenarios/scene_file.hpp>
 
+#include "batch_row.hpp"
+#include "checkpoint/checkpoint_file.hpp"
+#include "checkpoint/run_config_archive.hpp"
 #include "hdf5_output.hpp"
 #include "interrupt.hpp"
 #include "progress.hpp"
@@ -13,6 +16,8 @@
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/start.hpp>
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -60,6 +65,45 @@ RestScales rest_scales(const Model& model, double t, ConstVecRef q, double h) {
   return {0.5 * h * h * f.dot(scratch), h * scratch.lpNorm<Eigen::Infinity>()};
 }
 
+// What the run loop carries from one step to the next besides the runner and the watches: what
+// a checkpoint saves of it (every value the later steps or the summary read).
+struct LoopState {
+  long k = 0;       // steps done
+  double t0 = 0.0;  // the run's start: step k ends at t0 + k dt
+  RunSummary summary;
+  Diagnostics d0;   // at the start: the energy errors are relative to it
+  double power0 = 0.0, power = 0.0;
+  WorkIntegral work;
+  RestScales rest;
+  Vector j0;        // the momentum maps at the start
+  double lever_arm = 0.0;
+  double difference = 0.0;  // --error-estimate: max over the output times of |q - q^|_inf
+  std::string companion_failure;
+  long output_position = 0;  // CSV: bytes written; HDF5: frames
+  double seconds = 0.0;      // integration time so far (ns_per_step of a resumed run)
+
+  void save(OutArchive& a) const {
+    a.tag("loop");
+    a(k), a(t0), a(pack_summary(summary));
+    a(d0.energy), a(d0.energy_post), a(d0.residual), a(d0.gap), a(power0), a(power);
+    work.save(a);
+    a(rest.energy), a(rest.speed), a(j0), a(lever_arm), a(difference), a(companion_failure), a(output_position);
+    a(seconds);
+  }
+  void load(InArchive& a) {
+    a.tag("loop");
+    std::string packed;
+    a(k), a(t0), a(packed);
+    summary = unpack_summary(packed);
+    a(d0.energy), a(d0.energy_post), a(d0.residual), a(d0.gap), a(power0), a(power);
+    work.load(a);
+    a(rest.energy), a(rest.speed);
+    a.resize_into(j0);
+    a(lever_arm), a(difference), a(companion_failure), a(output_position);
+    a(seconds);
+  }
+};
+
 // CSV rows with shortest round-trip formatting, so no digit of the state is lost. A row is
 // formatted into a fixed buffer and written whenever that fills (a row of a million-body chain
 // has three million numbers: no buffer of its size).
@@ -80,8 +124,27 @@ class CsvWriter {
     header += ",energy,energy_post,residual\n";
     write(header.data(), header.size());
   }
+  // Continues the CSV of a run resumed from a checkpoint that had written `bytes` bytes of it:
+  // what follows them (rows written after the checkpoint) is dropped.
+  CsvWriter(const std::string& path, long bytes) : path_(path), written_(bytes) {
+    file_ = std::fopen(path.c_str(), "r+b");
+    if (!file_)
+      throw std::invalid_argument("cannot continue '" + path + "': cannot open it for writing: " + std::strerror(errno));
+    std::fseek(file_, 0, SEEK_END);
+    const long size = std::ftell(file_);
+    if (size < bytes || ::ftruncate(::fileno(file_), bytes) != 0 || std::fseek(file_, bytes, SEEK_SET) != 0)
+      throw std::invalid_argument("cannot continue '" + path + "': it holds " + std::to_string(size) +
+                                  " bytes where the checkpoint wrote " + std::to_string(bytes) +
+                                  ": not the output of this run");
+  }
   ~CsvWriter() {
     if (file_) std::fclose(file_);
+  }
+  // Writes what is buffered to the file and flushes it (a checkpoint's moment): the bytes so far.
+  long flush_to_disk() {
+    if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0)
+      throw std::runtime_error("error writing '" + path_ + "': " + std::strerror(errno));
+    return written_;
   }
   void row(double t, ConstVecRef q, const Diagnostics& d) {
     char* p = buffer_;
@@ -104,7 +167,10 @@ class CsvWriter {
  private:
   // A double takes at most 24 characters with to_chars; 32 leaves room for the comma.
   static constexpr std::size_t kField = 32, kBuffer = 1 << 16;
-  void write(const char* data, std::size_t size) { std::fwrite(data, 1, size, file_); }
+  void write(const char* data, std::size_t size) {
+    std::fwrite(data, 1, size, file_);
+    written_ += static_cast<long>(size);
+  }
   void put(char*& p, double v) {
     if (p + kField > buffer_ + sizeof buffer_) {  // full: write what is there (never the whole row)
       write(buffer_, static_cast<std::size_t>(p - buffer_));
@@ -114,6 +180,7 @@ class CsvWriter {
     *p++ = ',';
   }
   std::string path_;
+  long written_ = 0;  // bytes handed to the file
   std::FILE* file_ = nullptr;
   char buffer_[kBuffer];
 };
@@ -358,13 +425,18 @@ PreparedRun prepare_run(const RunConfig& config) {
     throw std::invalid_argument("--accuracy " + std::to_string(config.accuracy) +
                                 ": must be a fraction of the motion's extent, at least 0 (0: off)");
   r.choice.accuracy_every = config.accuracy > 0.0 ? kAccuracyEvery : 0;
+  if (!config.checkpoint_path.empty() && config.method.rfind("arkode", 0) == 0)
+    throw std::invalid_argument("--checkpoint: " + config.method +
+                                ": ARKODE keeps its step-size controller's history inside SUNDIALS, which cannot save "
+                                "it, so a resumed run would not be the same trajectory (checkpoints work for "
+                                "reflection, dla-* and rk4)");
   if (config.adaptive) {
     if (config.method != "reflection")
       throw std::invalid_argument("adaptive steps are the reflection method's (method " + config.method + ")");
     r.choice.adaptive.tol = config.tol;
     // Order 2 restarts lambda~ at every step (adaptive.hpp): say so in the summary.
     if (config.order == 2) set_restart(r.choice.rattle.restart, "1");
-    r.choice.adaptive.horizon = t_end;  // the scenes start at t = 0
+    r.choice.adaptive.horizon = config.horizon > 0.0 ? config.horizon : t_end;  // the scenes start at t = 0
     try {
       validate(r.choice.adaptive);
     } catch (const std::invalid_argument& e) {
@@ -416,16 +488,28 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   }
   std::unique_ptr<Runner> companion = config.error_estimate ? make_runner(setup, run.companion.choice, phase) : nullptr;
   double companion_s = 0.0;
-  double difference = 0.0;  // max over the output times of |q - q^|_inf
-  std::string companion_failure;
+
+  // A resumed run: the loop's state from the checkpoint (after the options, which prepare_run
+  // has read); the output continues where the checkpoint left it.
+  const bool resuming = !run.resume.empty();
+  LoopState loop;
+  std::unique_ptr<InArchive> archive;
+  if (resuming) {
+    archive = std::make_unique<InArchive>(run.resume);
+    RunConfig saved;
+    load(*archive, saved);
+    loop.load(*archive);
+  }
 
   // --out: CSV, or HDF5 by its extension (hdf5_output.hpp); the caller's sink gets the frames too.
   std::unique_ptr<CsvWriter> csv;
   std::unique_ptr<Hdf5RunWriter> h5;
   if (is_hdf5_path(config.csv_path))
-    h5 = std::make_unique<Hdf5RunWriter>(config.csv_path, config, info.name, params);
+    h5 = resuming ? std::make_unique<Hdf5RunWriter>(config.csv_path, loop.output_position)
+                  : std::make_unique<Hdf5RunWriter>(config.csv_path, config, info.name, params);
   else if (!config.csv_path.empty())
-    csv = std::make_unique<CsvWriter>(config.csv_path, model.coordinate_names());
+    csv = resuming ? std::make_unique<CsvWriter>(config.csv_path, loop.output_position)
+                   : std::make_unique<CsvWriter>(config.csv_path, model.coordinate_names());
   std::vector<FrameSink*> sinks;
   for (FrameSink* s : {static_cast<FrameSink*>(h5.get()), config.sink})
     if (s) sinks.push_back(s);
@@ -462,12 +546,20 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.dt = dt;
   summary.has_momentum = !model.momentum_maps().empty();
 
-  const Diagnostics d0 = runner->diagnostics();
-  const double power0 = forced ? power_now() : 0.0;
-  double power = power0;
-  WorkIntegral work;
-  work.start(power0, dt);
-  const RestScales rest = rest_scales(model, runner->t(), runner->q(), dt);
+  Diagnostics& d0 = loop.d0;
+  WorkIntegral& work = loop.work;
+  Vector& j0 = loop.j0;
+  if (!resuming) {
+    d0 = runner->diagnostics();
+    loop.power0 = forced ? power_now() : 0.0;
+    loop.power = loop.power0;
+    work.start(loop.power0, dt);
+    loop.rest = rest_scales(model, runner->t(), runner->q(), dt);
+    loop.t0 = runner->t();
+  }
+  const double power0 = loop.power0;
+  double& power = loop.power;
+  const RestScales rest = loop.rest;
   const double floor = rest.energy;
   // A velocity at round-off of the rest scale (a body at rest) satisfies no constraint to any
   // relative accuracy: its relative residual is not judged.
@@ -477,30 +569,78 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
                ? runner->relative_residual()
                : 0.0;
   };
-  Vector j0(model.momentum_maps().size()), j(model.momentum_maps().size());
-  runner->momentum_maps(j0);
-  summary.residual_max = d0.residual;
-  summary.residual_rel_max = relative_residual();
-  summary.gap_max = d0.gap;
-  const double lever_arm = hitch_lever_arm(model, runner->q(), runner->workspace());
-  if (csv) csv->row(runner->t(), runner->q(), d0);
-  for (FrameSink* s : sinks) s->frame(runner->t(), runner->q(), runner->p(), d0);
-  if (!finite(d0)) {
-    summary.status = Status::NonFiniteState;
-    summary.message = "the initial state is out of range: " + describe(d0) +
-                      ": check the scene's initial positions and velocities (a speed of 1e155 already "
-                      "overflows the energy)";
-  }
+  Vector j(model.momentum_maps().size());
   StabilityWatch stability(model, choice, dt);
-  if (summary.status == Status::Ok) summary.status = stability.check(*runner, 0, summary.message);
   PrecisionWatch precision(model, speed_floor);
-  if (summary.status == Status::Ok) summary.status = precision.check(runner->q(), runner->velocity(), dt, 0, summary.message);
+  if (!resuming) {
+    j0.resize(static_cast<Eigen::Index>(model.momentum_maps().size()));
+    runner->momentum_maps(j0);
+    summary.residual_max = d0.residual;
+    summary.residual_rel_max = relative_residual();
+    summary.gap_max = d0.gap;
+    loop.lever_arm = hitch_lever_arm(model, runner->q(), runner->workspace());
+    if (csv) csv->row(runner->t(), runner->q(), d0);
+    for (FrameSink* s : sinks) s->frame(runner->t(), runner->q(), runner->p(), d0);
+    if (!finite(d0)) {
+      summary.status = Status::NonFiniteState;
+      summary.message = "the initial state is out of range: " + describe(d0) +
+                        ": check the scene's initial positions and velocities (a speed of 1e155 already "
+                        "overflows the energy)";
+    }
+    if (summary.status == Status::Ok) summary.status = stability.check(*runner, 0, summary.message);
+    if (summary.status == Status::Ok) summary.status = precision.check(runner->q(), runner->velocity(), dt, 0, summary.message);
+  } else {
+    summary = loop.summary;
+    if (summary.status == Status::Interrupted) {  // what a resume is for
+      summary.status = Status::Ok;
+      summary.message.clear();
+    } else if (summary.status != Status::Ok) {
+      throw std::invalid_argument("--resume " + config.resume_path + ": the run ended with status=" +
+                                  to_string(summary.status) + " at step " + std::to_string(loop.k) + " (" +
+                                  summary.message + "): there is nothing to continue");
+    }
+    runner->load(*archive);
+    if (companion) companion->load(*archive);
+    stability.load(*archive);
+    precision.load(*archive);
+    if (!archive->done()) throw std::runtime_error("checkpoint: bytes left over after the run's state");
+  }
+  const double lever_arm = loop.lever_arm;
+  double& difference = loop.difference;
+  std::string& companion_failure = loop.companion_failure;
+  // The checkpoint: the loop's state at the end of step k, the outputs flushed first so that the
+  // position it records is on disk.
+  auto last_checkpoint = Clock::now();
+  auto write_checkpoint_now = [&](long k) {
+    if (csv) loop.output_position = csv->flush_to_disk();
+    if (h5) loop.output_position = h5->flush_to_disk();
+    loop.k = k;
+    loop.summary = summary;
+    OutArchive out;
+    RunConfig effective = config;
+    effective.horizon = choice.adaptive.horizon;
+    effective.resume_path.clear();
+    save(out, effective);
+    loop.save(out);
+    runner->save(out);
+    if (companion) companion->save(out);
+    stability.save(out);
+    precision.save(out);
+    write_checkpoint(config.checkpoint_path, {info.name, config.method, runner->t(), k}, out.bytes(), runner->q(),
+                     runner->p());
+    last_checkpoint = Clock::now();
+  };
+  auto checkpoint_due = [&](long k) {
+    if (config.checkpoint_path.empty()) return false;
+    if (config.checkpoint_every_steps > 0 && k % config.checkpoint_every_steps == 0) return true;
+    return config.checkpoint_every_seconds > 0.0 && seconds_since(last_checkpoint) >= config.checkpoint_every_seconds;
+  };
 
   double output_s = 0.0;
-  const double t0 = runner->t();
+  const double t0 = loop.t0;
   if (progress) progress->begin_steps();
   const auto loop_start = Clock::now();
-  for (long k = 1; k <= steps && summary.status == Status::Ok; ++k) {
+  for (long k = loop.k + 1; k <= steps && summary.status == Status::Ok; ++k) {
     const double t_before = runner->t();
     const bool ctrl_c = interrupt_requested();
     if (ctrl_c || (sink && sink->stop_requested()) || (config.stop && config.stop->load(std::memory_order_relaxed))) {
@@ -596,9 +736,23 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       for (FrameSink* s : sinks) s->frame(runner->t(), runner->q(), runner->p(), d);
       output_s += seconds_since(out_start);
     }
+    if (summary.status == Status::Ok && checkpoint_due(k)) {
+      const auto checkpoint_start = Clock::now();
+      const double before = loop.seconds;  // the integration's seconds before this process
+      loop.seconds = before + seconds_since(loop_start) - output_s - companion_s;
+      write_checkpoint_now(k);
+      loop.seconds = before;
+      output_s += seconds_since(checkpoint_start);
+    }
     if (progress && (k & 15) == 0) progress->update(k);  // it reads the clock: not every step
   }
-  const double loop_s = seconds_since(loop_start) - output_s - companion_s;
+  const double loop_s = loop.seconds + seconds_since(loop_start) - output_s - companion_s;
+  // The final checkpoint: the state the loop ended in (before the summary's verdicts below, which
+  // a resumed run makes afresh at its own end).
+  if (!config.checkpoint_path.empty()) {
+    loop.seconds = loop_s;
+    write_checkpoint_now(summary.steps);
+  }
   summary.stability_ratio = stability.ratio();
   if (summary.status == Status::Ok) {
     for (const std::string& w : {stability.warning(), precision.warning()})
@@ -667,9 +821,37 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   return summary;
 }
 
-RunSummary run_scene(const RunConfig& config) {
+namespace {
+
+// The options of a resumed run: the checkpoint's, with the caller's t_end (if set), checkpoint
+// settings (by default the checkpoint resumed from is kept up to date), sink and stop.
+RunConfig resumed_config(const RunConfig& given, const std::string& bytes) {
+  RunConfig saved;
+  try {
+    InArchive a(bytes);
+    load(a, saved);
+  } catch (const std::runtime_error& e) {
+    throw std::invalid_argument("--resume " + given.resume_path + ": " + e.what());
+  }
+  if (given.t_end >= 0.0) saved.t_end = given.t_end;
+  saved.checkpoint_path = given.checkpoint_path.empty() ? given.resume_path : given.checkpoint_path;
+  saved.checkpoint_every_steps = given.checkpoint_every_steps;
+  saved.checkpoint_every_seconds = given.checkpoint_every_seconds;
+  saved.resume_path = given.resume_path;
+  saved.sink = given.sink;
+  saved.stop = given.stop;
+  return saved;
+}
+
+}  // namespace
+
+RunSummary run_scene(const RunConfig& given) {
   const auto start_time = Clock::now();
-  const PreparedRun run = prepare_run(config);
+  std::string resume;
+  if (!given.resume_path.empty()) resume = read_checkpoint(given.resume_path);
+  const RunConfig config = resume.empty() ? given : resumed_config(given, resume);
+  PreparedRun run = prepare_run(config);
+  run.resume = std::move(resume);
   Parameters params = run.info.defaults();
   for (const auto& a : config.assignments) params.assign(a);
   Progress progress(run.info.name, run.steps);

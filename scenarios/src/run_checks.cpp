@@ -7,6 +7,18 @@
 
 namespace nonholo::scenarios {
 
+void WorkIntegral::save(OutArchive& a) const {
+  a(h_), a(n_), a(sum_);
+  for (double x : first_) a(x);
+  for (double x : last_) a(x);
+}
+
+void WorkIntegral::load(InArchive& a) {
+  a(h_), a(n_), a(sum_);
+  for (double& x : first_) a(x);
+  for (double& x : last_) a(x);
+}
+
 void WorkIntegral::start(double power, double h) {
   h_ = h;
   n_ = 0;

@@ -3,6 +3,7 @@
 // energy (net of the work of external forces), the constraints (the relative residual of the
 // velocity, the hitch gaps against the hitches' lever arms) and the precision of the
 // coordinates. Each threshold says why a correct run cannot reach it.
+#include <nonholo/archive.hpp>
 #include <nonholo/model.hpp>
 #include <nonholo/status.hpp>
 #include <nonholo/workspace.hpp>
@@ -50,6 +51,8 @@ class WorkIntegral {
   // From two steps on: one step has only the trapezoid, whose O(h^3) error would stand out
   // against a method of order 4 or 6 (two steps give Simpson's rule, three and more Gregory's).
   bool accurate() const { return n_ >= 2; }
+  void save(OutArchive& a) const;
+  void load(InArchive& a);
 
  private:
   static constexpr int kDifferences = 4;
@@ -112,6 +115,8 @@ class PrecisionWatch {
   // With the velocity v (n_v entries; empty: not checked). Ok, or PrecisionLoss with why in message.
   Status check(ConstVecRef q, ConstVecRef v, double h, long step, std::string& message);
   const std::string& warning() const { return warning_; }  // the first seen, "" if none
+  void save(OutArchive& a) const { a(warning_); }
+  void load(InArchive& a) { a(warning_); }
 
  private:
   const Model& model_;

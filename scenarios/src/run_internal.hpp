@@ -22,6 +22,7 @@ struct PreparedRun {
   Companion companion;  // --error-estimate
   double dt = 0.0;
   long steps = 0;
+  std::string resume;  // checkpoint bytes to continue from (empty: a fresh start)
 };
 
 // Validates the options of `config` (throws std::invalid_argument with the option's name).

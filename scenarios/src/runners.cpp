@@ -25,6 +25,10 @@ double relative_residual_at(const Model& model, Workspace& ws, ConstVecRef q, Co
   return relative_residual(model.one_form_pattern(), ws.mu_values.data(), v);
 }
 
+// The workspace's counters that the summary reports (the rest of it is scratch and caches).
+void save_counters(OutArchive& a, const Workspace& ws) { a(ws.factorizations), a(ws.legendre_iterations), a(ws.parasitic); }
+void load_counters(InArchive& a, Workspace& ws) { a(ws.factorizations), a(ws.legendre_iterations), a(ws.parasitic); }
+
 class ReflectionRunner final : public Runner {
  public:
   ReflectionRunner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase)
@@ -76,6 +80,31 @@ class ReflectionRunner final : public Runner {
   long internal_steps() const override { return stepper_ ? stepper_->accepted() : -1; }
   long rejected() const override { return stepper_ ? stepper_->rejected() : -1; }
   Workspace* workspace() override { return &ws_; }
+  void save(OutArchive& a) const override {
+    a.tag("reflection");
+    nonholo::save(a, state_);
+    save_counters(a, ws_);
+    a(static_cast<bool>(watch_)), a(static_cast<bool>(stepper_));
+    if (watch_) watch_->save(a);
+    if (stepper_) stepper_->save(a);
+    ws_.save_held(a);
+  }
+  void load(InArchive& a) override {
+    a.tag("reflection");
+    nonholo::load(a, state_);
+    load_counters(a, ws_);
+    bool watch = false, stepper = false;
+    a(watch), a(stepper);
+    if (watch != static_cast<bool>(watch_) || stepper != static_cast<bool>(stepper_))
+      throw std::runtime_error("checkpoint: written with the accuracy check or adaptive steps where this run has "
+                               "not (or the other way round)");
+    if (watch_) {
+      watch_->load(a);
+      watch_->rebind(state_);
+    }
+    if (stepper_) stepper_->load(a);
+    ws_.load_held(a, options_.min_pivot_ratio);
+  }
 
  private:
   const Model& model_;
@@ -135,6 +164,20 @@ class DlaRunner final : public Runner {
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return ws_.backend_name(); }
   long factorizations() const override { return ws_.factorizations; }
+  void save(OutArchive& a) const override {
+    a.tag("dla");
+    a(state_.t), a(state_.grid.t0), a(state_.grid.h), a(state_.grid.k), a(state_.q), a(state_.p);
+    a(state_.newton_iterations);
+    save_counters(a, ws_);
+    ws_.save_held(a);
+  }
+  void load(InArchive& a) override {
+    a.tag("dla");
+    a(state_.t), a(state_.grid.t0), a(state_.grid.h), a(state_.grid.k), a(state_.q), a(state_.p);
+    a(state_.newton_iterations);
+    load_counters(a, ws_);
+    ws_.load_held(a, options_.min_pivot_ratio);
+  }
 
  private:
   const Model& model_;
@@ -201,6 +244,20 @@ class ImplicitRunner final : public Runner {
   std::string backend() const override { return "dense-implicit"; }
   double parasitic() const override { return ws_.parasitic; }
   long restarts() const override { return state_.restarts; }
+  void save(OutArchive& a) const override {
+    a.tag("implicit");
+    a(state_.t), a(state_.grid.t0), a(state_.grid.h), a(state_.grid.k), a(state_.q), a(state_.p);
+    a(state_.newton_iterations), a(state_.steps), a(state_.restarts);
+    a(state_.watch.next_step), a(state_.watch.last_step), a(state_.watch.last_amplitude), a(state_.watch.floor);
+    a(ws_.parasitic), a(velocity_);
+  }
+  void load(InArchive& a) override {
+    a.tag("implicit");
+    a(state_.t), a(state_.grid.t0), a(state_.grid.h), a(state_.grid.k), a(state_.q), a(state_.p);
+    a(state_.newton_iterations), a(state_.steps), a(state_.restarts);
+    a(state_.watch.next_step), a(state_.watch.last_step), a(state_.watch.last_amplitude), a(state_.watch.floor);
+    a(ws_.parasitic), a(velocity_);
+  }
 
  private:
   const Model& model_;
@@ -301,6 +358,24 @@ class ReferenceRunner final : public Runner {
   long factorizations() const override {
     return integrator_.ode().workspace().factorizations - integrator_.trial_evaluations();
   }
+  void save(OutArchive& a) const override {
+    a.tag("reference");
+    integrator_.save(a);
+    a(static_cast<bool>(estimate_));
+    if (estimate_) estimate_->save(a), a(shadow_);
+  }
+  void load(InArchive& a) override {
+    a.tag("reference");
+    integrator_.load(a);
+    bool estimate = false;
+    a(estimate);
+    if (estimate != static_cast<bool>(estimate_))
+      throw std::runtime_error("checkpoint: written with the accuracy check where this run has none (or the other way)");
+    if (estimate_) {
+      estimate_->load(a), a(shadow_);
+      estimate_->rebind(solver_q());
+    }
+  }
 
  private:
   // The solver's own configuration (quaternions as integrated), in place in its state.
@@ -314,6 +389,11 @@ class ReferenceRunner final : public Runner {
 };
 
 }  // namespace
+
+void Runner::save(OutArchive&) const {
+  throw std::runtime_error("checkpoint: this method's state cannot be saved");
+}
+void Runner::load(InArchive&) { throw std::runtime_error("checkpoint: this method's state cannot be loaded"); }
 
 Companion companion_of(const MethodChoice& c) {
   Companion out;

@@ -3,6 +3,7 @@
 // advance one output interval, then report the configuration and the diagnostics.
 #include <nonholo/accuracy.hpp>
 #include <nonholo/adaptive.hpp>
+#include <nonholo/archive.hpp>
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/reference/integrators.hpp>
@@ -58,6 +59,11 @@ class Runner {
   // The in-run accuracy check (nonholo/accuracy.hpp): the estimated global error in q so far,
   // NaN for a method without one or with the check off; and the watch itself, when there is one.
   virtual const DoublingEstimate* accuracy() const { return nullptr; }
+  // Checkpoints: everything the next steps and the summary read (state, watches, counters), at
+  // a step boundary. Throws std::runtime_error for a method whose state cannot be saved (ARKODE)
+  // or bytes of another run.
+  virtual void save(OutArchive& a) const;
+  virtual void load(InArchive& a);
 };
 
 struct MethodChoice {

@@ -15,6 +15,19 @@ StabilityWatch::StabilityWatch(const Model& model, const MethodChoice& choice, d
     limit_factor_ = 2.0 * std::sqrt(2.0);  // RK4 on the imaginary axis
 }
 
+void StabilityWatch::save(OutArchive& a) const {
+  a.tag("stability");
+  a(estimate_.omega), a(estimate_.iterations), a(estimate_.converged), a(estimate_.direction);
+  a(ratio_), a(omega_max_);
+}
+
+void StabilityWatch::load(InArchive& a) {
+  a.tag("stability");
+  a(estimate_.omega), a(estimate_.iterations), a(estimate_.converged);
+  a.resize_into(estimate_.direction);
+  a(ratio_), a(omega_max_);
+}
+
 Status StabilityWatch::check(Runner& runner, long step, std::string& message) {
   if (!active() || (step > 0 && step % kEvery != 0)) return Status::Ok;
   Workspace* ws = runner.workspace();

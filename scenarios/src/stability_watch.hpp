@@ -29,6 +29,8 @@ class StabilityWatch {
   Status check(Runner& runner, long step, std::string& message);
   double ratio() const { return ratio_; }  // NaN while inactive
   std::string warning() const;
+  void save(OutArchive& a) const;
+  void load(InArchive& a);
 
  private:
   const Model& model_;

@@ -124,3 +124,23 @@ def test_plot_train_draws_the_same_picture_from_either_format(tmp_path):
         subprocess.run(["/usr/bin/python3", script, str(data), str(png)], check=True, capture_output=True)
         pictures.append(png.read_bytes())
     assert pictures[0] == pictures[1]
+
+
+def test_a_resumed_run_continues_its_hdf5_file_bit_for_bit(tmp_path):
+    # The run to t = 3 against the run to t = 1 with a checkpoint, resumed to t = 3: the frames
+    # of the continued file are the whole run's, every bit, and the summary is written anew.
+    args = ["run", "sleigh_chain", "--set", "bodies=30", "--order", "4", "--dt", "0.05"]
+    whole = cli(*args, "--t-end", "3", "--out", str(tmp_path / "whole.h5"))
+    part = cli(*args, "--t-end", "1", "--out", str(tmp_path / "part.h5"), "--checkpoint", str(tmp_path / "ck.h5"))
+    assert whole.returncode == 0 and part.returncode == 0, part.stderr
+    resumed = cli("run", "--resume", str(tmp_path / "ck.h5"), "--t-end", "3")
+    assert resumed.returncode == 0, resumed.stderr
+    with h5py.File(tmp_path / "whole.h5", "r") as a, h5py.File(tmp_path / "part.h5", "r") as b:
+        for name in ["t", "q", "p", "energy", "energy_post", "residual", "gap"]:
+            x, y = a[name][()], b[name][()]
+            assert x.shape == y.shape and x.shape[0] == 61, name
+            assert np.array_equal(x.view(np.uint64), y.view(np.uint64)), name
+        assert b["summary"].attrs["steps"] == 60
+    with h5py.File(tmp_path / "ck.h5", "r") as c:  # readable beside the bytes
+        assert text(c.attrs["format"]) == "nonholo checkpoint" and c.attrs["step"] == 60
+        assert c["q"].shape == (90,) and c.attrs["t"] == 3.0

@@ -5,6 +5,7 @@
 // the run is bit for bit the same with and without the watch). For a method of order p the
 // difference is (2^(p+1) - 2) times the local error of one step of h, to leading order
 // (step doubling). The local errors are accumulated into a global estimate (GlobalError).
+#include <nonholo/archive.hpp>
 #include <nonholo/model.hpp>
 #include <nonholo/rattle_options.hpp>
 #include <nonholo/state.hpp>
@@ -32,6 +33,8 @@ class GlobalError {
     tv_sum_ += steps * dv * t;
   }
   double at(double t) const { return q_sum_ + t * v_sum_ - tv_sum_; }
+  void save(OutArchive& a) const { a(q_sum_), a(v_sum_), a(tv_sum_); }
+  void load(InArchive& a) { a(q_sum_), a(v_sum_), a(tv_sum_); }
 
  private:
   double q_sum_ = 0.0, v_sum_ = 0.0, tv_sum_ = 0.0;
@@ -98,6 +101,12 @@ class DoublingEstimate {
   // "t = 1.23: gap-not-converged: ..." for the first shadow step of 2h that failed.
   const std::string& first_failure() const { return first_failure_; }
 
+  // Checkpoints (archive.hpp): every field; after load(), rebind() to the run's configuration
+  // (what stepped() would have seen last).
+  void save(OutArchive& a) const;
+  void load(InArchive& a);
+  void rebind(ConstVecRef q) { last_q_ = q.data(); }
+
  private:
   int every_;
   double factor_;
@@ -135,6 +144,12 @@ class AccuracyWatch {
   }
 
   const DoublingEstimate& estimate() const { return estimate_; }
+
+  // Checkpoints: the estimate and the shadow's state (a sample may be under way); after load(),
+  // rebind() to the run's state.
+  void save(OutArchive& a) const;
+  void load(InArchive& a);
+  void rebind(const State& s) { estimate_.rebind(s.q); }
 
  private:
   void start_shadow(const State& s);

@@ -17,6 +17,7 @@
 // that the difference can resolve the pair is accepted and grows by max_factor; a retried pair
 // whose difference does not fall as h^(p+1) is round-off too (accepted, and the floor raised). The energy
 // projection and the restart of the composed step (RattleOptions::restart) happen at every step.
+#include <nonholo/archive.hpp>
 #include <nonholo/model.hpp>
 #include <nonholo/rattle_options.hpp>
 #include <nonholo/state.hpp>
@@ -61,6 +62,11 @@ class AdaptiveStepper {
 
   // Start again from h_initial (after changing the state by hand, say).
   void reset();
+
+  // Checkpoints (archive.hpp): the controller's state and counters (the options are the
+  // constructor's: a checkpoint of other options is refused).
+  void save(OutArchive& a) const;
+  void load(InArchive& a);
 
   double h() const { return h_; }  // the size the next pair will try
   double last_step() const { return last_h_; }  // the step size of the last accepted pair

@@ -5,6 +5,7 @@
 // points take busy_flag() for each call: a second call while one runs (another thread, or a
 // model callback of the running step) is refused with Status::WorkspaceBusy (busy_flag.hpp).
 // The members below are the integrators' own and do not check it.
+#include <nonholo/archive.hpp>
 #include <nonholo/busy_flag.hpp>
 #include <nonholo/model.hpp>
 #include <nonholo/rattle_options.hpp>
@@ -155,6 +156,14 @@ class alignas(128) Workspace {
     mu_valid_ = mu_written;
     ++factorizations;
   }
+  // Checkpoints (archive.hpp): what a step leaves for the next one, the one-forms, C(q)
+  // factorised and a chain's sines and cosines at the state's q, so that a resumed run's first
+  // step does what the uninterrupted run's did, bit for bit (a fresh factorisation of the same C
+  // is not bitwise the one a fused sweep builds row by row). Backends without exposed numbers
+  // (dense, CHOLMOD) factorise again at load, uncounted: theirs is the code the step uses.
+  // load_held throws std::runtime_error on bytes of another model or a factorisation that fails.
+  void save_held(OutArchive& a) const;
+  void load_held(InArchive& a, double min_pivot_ratio);
   // Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
   bool sincos_hold(ConstVecRef q) const;
   // ... and C(q) is factorised (one comparison of q).

@@ -4,6 +4,7 @@
 // Dormand-Prince 5(4), the Verner 6(5) or the Fehlberg 8(7) table. Each can project onto the
 // constraints after every step (positions onto g = 0 for holonomic rows, velocities onto D), as
 // users often do.
+#include <nonholo/archive.hpp>
 #include <nonholo/reference/index_reduced.hpp>
 
 #include <memory>
@@ -63,6 +64,12 @@ class Integrator {
   long steps() const { return steps_; }          // integrator steps taken so far
   long rhs_evaluations() const { return rhs_; }  // evaluations of the equations
   const std::string& message() const { return message_; }
+
+  // Checkpoints (archive.hpp), RK4 only: its state, time and counters. ARKODE's integrator keeps
+  // its step-size controller's history inside SUNDIALS, with no way to save it: both throw
+  // std::runtime_error for the ARKODE methods.
+  void save(OutArchive& a) const;
+  void load(InArchive& a);
 
  private:
   struct Arkode;  // keeps the SUNDIALS headers out of this one

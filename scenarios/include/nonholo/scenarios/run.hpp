@@ -62,6 +62,18 @@ struct RunConfig {
   // Reflection: adaptive steps (nonholo/adaptive.hpp; order 2 restarts at every step) aiming at
   // an error `tol` in q at t_end; dt is then the output interval, which the steps land on.
   bool adaptive = false;
+  double horizon = 0.0;  // adaptive: the run length the error budget is spread over (0: t_end)
+
+  // Checkpoints (README "Long runs"): the whole state of the run written to this HDF5 file at
+  // its end (also when it fails or is interrupted) and, if set, every so many steps or seconds
+  // (atomically: a crash mid-write keeps the previous one). Empty: none.
+  std::string checkpoint_path;
+  long checkpoint_every_steps = 0;
+  double checkpoint_every_seconds = 0.0;
+  // Continue the run saved in this checkpoint: its options replace this config's, except
+  // t_end (when >= 0: run on to it), the checkpoint settings above, sink and stop. The output
+  // file is continued from where the checkpoint left it (rows written after it are dropped).
+  std::string resume_path;
 };
 
 // One key=value of the summary line, with its value unrounded (the line prints 6 digits).

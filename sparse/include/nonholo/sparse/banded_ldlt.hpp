@@ -35,6 +35,7 @@ class BandedLdlt final : public Factorization {
   FactorStatus factorize_in_place(double min_pivot_ratio) override;
   FactorStatus solve(const double* b, double* x) override;
   Backend backend() const override { return Backend::Banded; }
+  std::vector<double>* numeric_state() override { return &band_; }
 
   int bandwidth() const { return kd_; }
   int stride() const { return kd_ + 1; }

@@ -8,6 +8,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace nonholo::sparse {
 
@@ -69,6 +70,10 @@ class Factorization {
   virtual FactorStatus solve(const double* b, double* x) = 0;
 
   virtual Backend backend() const = 0;
+  // The numbers a successful factorisation left (checkpoints: restored, they make solve() give
+  // what it gave, bit for bit), when the backend exposes them; nullptr otherwise (a checkpoint
+  // then factorises again).
+  virtual std::vector<double>* numeric_state() { return nullptr; }
   int size() const { return size_; }
   // After factorize(): smallest pivot ratio and the row of C where it occurred.
   double min_pivot_ratio() const { return min_ratio_; }

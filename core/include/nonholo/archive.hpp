@@ -1,0 +1,59 @@
+#pragma once
+// Bytes for checkpoints: the exact values of a state (every double bit for bit), written in one
+// order and read back in the same. Not a file format by itself: a checkpoint file wraps the bytes
+// with what they belong to (the library's format version, the scene, the options) and checks
+// that before reading (scenarios/checkpoint). Native byte order; a checkpoint is for the machine
+// kind that wrote it.
+#include <nonholo/state.hpp>
+
+#include <cstdint>
+#include <string>
+
+namespace nonholo {
+
+class OutArchive {
+ public:
+  void operator()(double x) { raw(&x, sizeof x); }
+  void operator()(long x) { raw(&x, sizeof x); }
+  void operator()(int x) { raw(&x, sizeof x); }
+  void operator()(bool x) { (*this)(static_cast<int>(x)); }
+  void operator()(const std::string& s);
+  void operator()(ConstVecRef v);
+  // A label, read back and compared: a reader out of step fails at the first label it meets.
+  void tag(const char* label) { (*this)(std::string(label)); }
+
+  const std::string& bytes() const { return bytes_; }
+
+ private:
+  void raw(const void* p, std::size_t n) { bytes_.append(static_cast<const char*>(p), n); }
+  std::string bytes_;
+};
+
+// Throws std::runtime_error naming what was being read when the bytes end early, a size
+// differs from the one expected, or a label does not match.
+class InArchive {
+ public:
+  explicit InArchive(const std::string& bytes) : bytes_(bytes) {}
+  void operator()(double& x) { raw(&x, sizeof x, "a number"); }
+  void operator()(long& x) { raw(&x, sizeof x, "an integer"); }
+  void operator()(int& x) { raw(&x, sizeof x, "an integer"); }
+  void operator()(bool& x);
+  void operator()(std::string& s);
+  // Into a vector of the size it already has (sized by the model): a different size is refused.
+  void operator()(VecRef v);
+  // Into a vector of any size (resized to the stored one).
+  void resize_into(Vector& v);
+  void tag(const char* label);
+  bool done() const { return at_ == bytes_.size(); }
+
+ private:
+  void raw(void* p, std::size_t n, const char* what);
+  const std::string& bytes_;
+  std::size_t at_ = 0;
+};
+
+// Every field of a State (its vectors must already have the model's sizes when loading).
+void save(OutArchive& a, const State& s);
+void load(InArchive& a, State& s);
+
+}  // namespace nonholo

@@ -1,0 +1,30 @@
+#pragma once
+// The checkpoint file of `nonholo run --checkpoint FILE.h5`: the run's bytes (archive.hpp, the
+// whole loop state, run_checkpoint.hpp) in HDF5 dataset /bytes, beside readable /q and /p and
+// root attributes that say what it is (format, format_version, scene, method, t, step). Written
+// atomically: to FILE.h5.tmp, flushed to disk (fsync), then renamed over FILE.h5, so that a crash
+// mid-write leaves the previous checkpoint whole.
+#include <nonholo/types.hpp>
+
+#include <string>
+
+namespace nonholo::scenarios {
+
+// Bumped whenever the bytes change meaning: a checkpoint of another format version is refused.
+constexpr long kCheckpointFormat = 1;
+
+struct CheckpointInfo {
+  std::string scene, method;
+  double t = 0.0;
+  long step = 0;
+};
+
+// Throws std::runtime_error (cannot write, HDF5 failure) naming the path; without HDF5,
+// std::invalid_argument saying so.
+void write_checkpoint(const std::string& path, const CheckpointInfo& info, const std::string& bytes, ConstVecRef q,
+                      ConstVecRef p);
+// The bytes; `info` gets the attributes. Throws std::invalid_argument for a missing or unreadable
+// file, a file that is not a nonholo checkpoint, or one of another format version.
+std::string read_checkpoint(const std::string& path, CheckpointInfo* info = nullptr);
+
+}  // namespace nonholo::scenarios
