@@ -181,14 +181,15 @@ void DoublingEstimate::load(InArchive& a) {
   last_q_ = nullptr;
 }
 
+// The shadow only while a sample is under way (a state's worth of bytes otherwise saved).
 void AccuracyWatch::save(OutArchive& a) const {
   estimate_.save(a);
-  nonholo::save(a, shadow_);
+  if (estimate_.pending()) nonholo::save(a, shadow_);
 }
 
 void AccuracyWatch::load(InArchive& a) {
   estimate_.load(a);
-  nonholo::load(a, shadow_);
+  if (estimate_.pending()) nonholo::load(a, shadow_);
 }
 
 }  // namespace nonholo

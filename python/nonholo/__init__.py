@@ -4,6 +4,7 @@ High level, as the command-line tool:
     nonholo.run(scene_or_file, dt=..., t_end=..., set={...}, method=..., order=..., hitch=..., every=...)
     nonholo.batch(scene_or_file, count=..., vary={...}, ...)
     nonholo.scenes()
+    nonholo.load(path)   # a run's or batch's output file (CSV or HDF5) back as results
 Low level, the C++ library (ModelBuilder, Model, Workspace, RattleOptions, State, step, ...):
 see help(nonholo._core).
 """
@@ -15,7 +16,7 @@ from . import _core
 from ._core import *  # noqa: F401,F403  (the library's API)
 
 __all__ = [name for name in dir(_core) if not name.startswith("_")] + [
-    "run", "batch", "scenes", "RunResult", "BatchResult", "RunError"]
+    "run", "batch", "scenes", "load", "RunResult", "BatchResult", "RunError"]
 
 
 class RunError(RuntimeError):
@@ -47,14 +48,19 @@ class RunResult(_Result):
 
     t            (frames,) times
     q            (frames, coordinates) configurations
-    coordinates  the coordinates' names (the CSV's header)
-    energy, energy_post, residual   (frames,) per-frame diagnostics
+    p            (frames, velocities) the momentum the method carries (reflection: p~; the
+                 reference methods: M v), as the HDF5 output's /p (None from a CSV file)
+    coordinates  the coordinates' names (the CSV's header); velocities: p's entries' names
+    energy, energy_post, residual, gap   (frames,) per-frame diagnostics (gap: the hitches'
+                 largest |g|; None from a CSV file)
     summary      the summary line as a dict, numbers unrounded; "status" is "ok" unless a step
-                 failed ("message" says why), "warning" what the CLI prints on stderr
-    line         the summary line exactly as `nonholo run` prints it
+                 failed ("message" says why), "warning" what the CLI prints on stderr ({} from
+                 a CSV file, which has no summary)
+    line         the summary line exactly as `nonholo run` prints it ("" from a file)
     """
 
-    __slots__ = ("t", "q", "coordinates", "energy", "energy_post", "residual", "summary", "line")
+    __slots__ = ("t", "q", "p", "coordinates", "velocities", "energy", "energy_post", "residual", "gap",
+                 "summary", "line")
 
     def __repr__(self):
         return "<nonholo.RunResult %s: %d frames x %d coordinates, status=%s>" % (
@@ -80,7 +86,7 @@ class BatchResult(_Result):
 def _text(name, value):
     """A string argument as the command line gets it; name is the Python keyword. The tool's
     arguments are C strings: a NUL byte would end one there and the rest be lost silently."""
-    text = _os.fspath(value) if name in ("scene", "out") else str(value)
+    text = _os.fspath(value) if name in ("scene", "out", "checkpoint", "resume") else str(value)
     if isinstance(text, bytes):
         text = _os.fsdecode(text)
     if "\0" in text:
@@ -163,9 +169,10 @@ def _finish(result, d, check, what):
     return result
 
 
-def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=None, every=None,
+def run(scene=None, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=None, every=None,
         backend=None, restart=None, restart_tol=None, monitor_every=None, composition=None,
-        error_estimate=False, project=False, tol=None, rotation=None, accuracy=None, out=None, check=False):
+        error_estimate=False, project=False, tol=None, rotation=None, accuracy=None, out=None, check=False,
+        checkpoint=None, checkpoint_every=None, resume=None):
     """Integrates one scene (a built-in name or a scene file) as `nonholo run` does and
     returns a RunResult with its frames and summary.
 
@@ -178,14 +185,38 @@ def run(scene, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=
     "moser-veselov", "moser-veselov-f" or "exponential"), accuracy (the accuracy check's
     tolerance, a fraction of the motion's extent, default 0.1; 0: off: a run above it ends with
     summary["status"] "inaccurate", its frames kept); out also writes the CLI's file (CSV,
-    or HDF5 for .h5). With rigid bodies q holds each body's quaternion (w, x, y, z) and centre. Bad options raise ValueError with the tool's message; a failed step ends the
+    or HDF5 for .h5). With rigid bodies q holds each body's quaternion (w, x, y, z) and centre.
+    checkpoint (an .h5 path) writes the run's whole state at its end (also when it fails or
+    Ctrl-C stops it) and, with checkpoint_every (steps, or "60s"), during it;
+    run(resume=path, t_end=...) continues such a run bit for bit, with the checkpoint's options
+    (no scene or other option then), its frames from where it resumed (the output file has the
+    earlier ones). Bad options raise ValueError with the tool's message; a failed step ends the
     run early with summary["status"] saying why (check=True raises RunError instead). Ctrl-C
     raises KeyboardInterrupt with the frames so far in its .result.
     """
-    args = _run_arguments("run", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                          monitor_every, composition, error_estimate, project, tol, rotation, accuracy)
-    _option(args, "every", "--every", every, _integer)
-    _option(args, "out", "--out", out, _text)
+    if resume is not None:
+        given = [name for name, value in (
+            ("scene", scene), ("dt", dt), ("set", set), ("method", method), ("order", order), ("hitch", hitch),
+            ("every", every), ("backend", backend), ("restart", restart), ("restart_tol", restart_tol),
+            ("monitor_every", monitor_every), ("composition", composition), ("tol", tol), ("rotation", rotation),
+            ("accuracy", accuracy), ("out", out)) if value is not None]
+        given += [name for name, flag in (("error_estimate", error_estimate), ("project", project)) if flag]
+        if given:
+            raise ValueError("%s with resume: a resumed run takes its scene and options from the checkpoint (only "
+                             "t_end, checkpoint and checkpoint_every may be given)" % ", ".join(given))
+        args = []
+        _option(args, "t_end", "--t-end", t_end, _number)
+        _option(args, "resume", "--resume", resume, _text)
+    else:
+        if scene is None:
+            raise ValueError("scene: give a scene name or file (or resume= a checkpoint)")
+        args = _run_arguments("run", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+                              monitor_every, composition, error_estimate, project, tol, rotation, accuracy)
+        _option(args, "every", "--every", every, _integer)
+        _option(args, "out", "--out", out, _text)
+    _option(args, "checkpoint", "--checkpoint", checkpoint, _text)
+    _option(args, "checkpoint_every", "--checkpoint-every", checkpoint_every,
+            lambda k, v: _text(k, v) if isinstance(v, str) else _integer(k, v))
     d = _core._run(args)
     return _finish(RunResult(d), d, check, "run")
 
@@ -219,3 +250,87 @@ def scenes():
     """The built-in scenes: a list of dicts with name, description, dt, t_end (the defaults)
     and parameters (each a dict with name, default and description)."""
     return _core._scenes()
+
+
+def _load_csv(path):
+    import csv
+    with open(path, newline="") as f:
+        reader = csv.reader(f)
+        header = next(reader, None)
+        rows = list(reader)
+    if header and header[0] == "t" and header[-3:] == ["energy", "energy_post", "residual"]:
+        values = _np.array([[float(x) for x in row] for row in rows], dtype=float).reshape(len(rows), len(header))
+        names = header[1:-3]
+        return RunResult(dict(t=values[:, 0], q=values[:, 1:1 + len(names)], p=None, coordinates=names,
+                              velocities=names, energy=values[:, -3], energy_post=values[:, -2],
+                              residual=values[:, -1], gap=None, summary={}, line=""))
+    if header and header[0] == "trajectory":
+        columns = {}
+        for i, name in enumerate(header):
+            cells = [row[i] for row in rows]
+            try:
+                columns[name] = _np.array([float(c) for c in cells])
+            except ValueError:
+                columns[name] = _np.array(cells)
+        return BatchResult(dict(columns=columns, messages=[""] * len(rows), summary={}, line=""))
+    raise ValueError("%s: not a CSV file nonholo wrote (its header starts %r)" % (path, header[0] if header else None))
+
+
+def _attributes(group):
+    out = {}
+    for key, value in group.attrs.items():
+        if isinstance(value, bytes):
+            value = value.decode()
+        elif isinstance(value, _np.generic):
+            value = value.item()
+        out[key] = value
+    return out
+
+
+def _load_hdf5(path):
+    try:
+        import h5py
+    except ImportError as e:  # pragma: no cover - Debian's python3-h5py is in tools/setup.sh
+        raise ImportError("nonholo.load(%r): reading HDF5 needs h5py (Debian: python3-h5py)" % str(path)) from e
+    with h5py.File(path, "r") as f:
+        kind = f.attrs.get("format")
+        kind = kind.decode() if isinstance(kind, bytes) else kind
+        summary = _attributes(f["summary"]) if "summary" in f else {}
+        if kind == "nonholo run":
+            names = [n.decode() if isinstance(n, bytes) else n for n in f["coordinates"][()]]
+            velocities = ([n.decode() if isinstance(n, bytes) else n for n in f["velocities"][()]]
+                          if "velocities" in f else names)
+            return RunResult(dict(t=f["t"][()], q=f["q"][()], p=f["p"][()], coordinates=names, velocities=velocities,
+                                  energy=f["energy"][()], energy_post=f["energy_post"][()],
+                                  residual=f["residual"][()], gap=f["gap"][()], summary=summary, line=""))
+        if kind == "nonholo batch":
+            columns = {}
+            messages = []
+            for name, data in f.items():
+                if not isinstance(data, h5py.Dataset):
+                    continue
+                values = data[()]
+                if name == "messages":
+                    messages = [v.decode() if isinstance(v, bytes) else v for v in values]
+                    continue
+                if values.dtype.kind in "SO":
+                    values = _np.array([v.decode() if isinstance(v, bytes) else v for v in values])
+                columns[name] = values
+            if "batch" in f:
+                summary.update(_attributes(f["batch"]))
+            return BatchResult(dict(columns=columns, messages=messages, summary=summary, line=""))
+        raise ValueError("%s: a %r HDF5 file, not a run's or batch's output (a checkpoint is resumed with "
+                         "run(resume=...), not loaded)" % (path, kind))
+
+
+def load(path):
+    """A run's or a batch's output file, as `nonholo run|batch --out` (or out=) wrote it, back as a
+    RunResult or BatchResult. HDF5 (.h5, .hdf5; needs h5py) has everything: t, q, p, the
+    diagnostics, gap and the summary; a CSV has t, q, energy, energy_post and residual (p, gap
+    None, summary {}). The numbers are the ones written, bit for bit."""
+    text = _os.fspath(path)
+    if text.endswith((".h5", ".hdf5")):
+        return _load_hdf5(text)
+    if text.endswith(".csv"):
+        return _load_csv(text)
+    raise ValueError("load(%r): expected a .csv, .h5 or .hdf5 file written by nonholo" % text)

@@ -42,12 +42,15 @@ py::array_t<double> take(std::vector<double>&& data, std::vector<py::ssize_t> sh
 class ArraySink : public scenarios::FrameSink {
  public:
   void begin(const std::vector<std::string>& coordinates) override { names = coordinates; }
-  void frame(double time, ConstVecRef q_now, ConstVecRef, const Diagnostics& d) override {
+  void velocities(const std::vector<std::string>& names_of_p) override { velocity_names = names_of_p; }
+  void frame(double time, ConstVecRef q_now, ConstVecRef p_now, const Diagnostics& d) override {
     t.push_back(time);
     q.insert(q.end(), q_now.data(), q_now.data() + q_now.size());
+    p.insert(p.end(), p_now.data(), p_now.data() + p_now.size());
     energy.push_back(d.energy);
     energy_post.push_back(d.energy_post);
     residual.push_back(d.residual);
+    gap.push_back(d.gap);
   }
   bool stop_requested() override {
     if (++count_ < stride_) return false;
@@ -66,8 +69,8 @@ class ArraySink : public scenarios::FrameSink {
     return true;
   }
 
-  std::vector<std::string> names;
-  std::vector<double> t, q, energy, energy_post, residual;
+  std::vector<std::string> names, velocity_names;
+  std::vector<double> t, q, p, energy, energy_post, residual, gap;
   std::optional<py::error_already_set> error;
 
  private:
@@ -102,12 +105,16 @@ py::dict run(const std::vector<std::string>& args) {
   }
   const auto frames = static_cast<py::ssize_t>(sink.t.size());
   const auto n = static_cast<py::ssize_t>(sink.names.size());
+  const auto nv = static_cast<py::ssize_t>(sink.velocity_names.empty() ? sink.names.size() : sink.velocity_names.size());
   py::dict out;
   out["summary"] = summary_dict(summary);
   out["line"] = summary.line();
   out["coordinates"] = sink.names;
+  out["velocities"] = sink.velocity_names.empty() ? sink.names : sink.velocity_names;
   out["t"] = take(std::move(sink.t), {frames});
   out["q"] = take(std::move(sink.q), {frames, n});
+  out["p"] = take(std::move(sink.p), {frames, nv});
+  out["gap"] = take(std::move(sink.gap), {frames});
   out["energy"] = take(std::move(sink.energy), {frames});
   out["energy_post"] = take(std::move(sink.energy_post), {frames});
   out["residual"] = take(std::move(sink.residual), {frames});

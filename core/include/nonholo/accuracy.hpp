@@ -60,6 +60,7 @@ class DoublingEstimate {
   // Before the run's step: whether the shadow's step of 2h should start now (then call
   // include() with the configuration, and started() or failed()). Inline: it runs every step.
   bool due() const { return pending_at_ < 0 && step_ >= next_at_; }
+  bool pending() const { return pending_at_ >= 0; }  // a shadow's pair under way
   void include(ConstVecRef q);  // into the extent
   void started() { pending_at_ = step_ + 2; }
   void failed(double t, const char* status, const char* message);
