@@ -292,7 +292,11 @@ def _load_hdf5(path):
         import h5py
     except ImportError as e:  # pragma: no cover - Debian's python3-h5py is in tools/setup.sh
         raise ImportError("nonholo.load(%r): reading HDF5 needs h5py (Debian: python3-h5py)" % str(path)) from e
-    with h5py.File(path, "r") as f:
+    try:
+        f = h5py.File(path, "r")
+    except OSError:  # a run killed while writing: readable as a single-writer/multiple-reader file
+        f = h5py.File(path, "r", swmr=True)
+    with f:
         kind = f.attrs.get("format")
         kind = kind.decode() if isinstance(kind, bytes) else kind
         summary = _attributes(f["summary"]) if "summary" in f else {}

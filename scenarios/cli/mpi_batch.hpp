@@ -29,6 +29,7 @@ class MpiBatch final : public BatchProcesses {
 
   int size() const override { return size_; }
   bool writes() const override { return rank_ == 0; }
+  int rank() const override { return rank_; }
   std::vector<EnsembleItem> run(long count, int threads, const std::string& command, const EnsembleJob& job) override;
   // Takes part in the agreement as a rank that failed (no-op after it); does not throw.
   void abandon() override;

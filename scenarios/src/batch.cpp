@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -56,34 +57,85 @@ std::string number(double x) {
   return std::string(buf, std::to_chars(buf, buf + sizeof buf, x).ptr);
 }
 
-// The batch's table as CSV (`nonholo batch --out`): one row per trajectory, in order.
-void write_batch_csv(std::ofstream& out, const std::string& path, const BatchResult& result, bool error_estimate) {
-  const bool has_work = result.aggregate.has_work;
+// The batch table's CSV header and rows (`nonholo batch --out`, and the journal below).
+void csv_header(std::ostream& out, const std::vector<std::string>& varied, const std::vector<std::string>& shown,
+                bool has_work, bool error_estimate) {
   out << "trajectory";
-  for (const auto& name : result.varied) out << "," << name;
+  for (const auto& name : varied) out << "," << name;
   out << ",t_final";
-  for (const auto& name : result.shown) out << "," << name;
+  for (const auto& name : shown) out << "," << name;
   out << ",energy_rel_err_max,energy_post_rel_err_max,residual_max,gap_max,restarts,parasitic_max";
   if (has_work) out << ",work,energy_balance_err_max";
   if (error_estimate) out << ",error_estimate";
   out << ",status\n";
-  for (std::size_t i = 0; i < result.rows.size(); ++i) {
-    const BatchResult::Trajectory& r = result.rows[i];
-    const RunSummary& s = r.summary;
-    out << i;
-    for (double x : r.values) out << "," << number(x);
-    out << "," << number(s.t_final);
-    for (double x : r.final_q) out << "," << number(x);
-    out << "," << number(s.energy_rel_err_max) << "," << number(s.energy_post_rel_err_max) << ","
-        << number(s.residual_max) << "," << number(s.gap_max) << "," << s.restarts << ","
-        << number(s.parasitic_max);
-    if (has_work) out << "," << number(s.has_work ? s.work : NAN) << "," << number(s.energy_balance_err_max);
-    if (error_estimate) out << "," << number(s.error_estimate);
-    out << "," << to_string(s.status) << "\n";
-  }
+}
+
+void csv_row(std::ostream& out, long i, const BatchResult::Trajectory& r, bool has_work, bool error_estimate) {
+  const RunSummary& s = r.summary;
+  out << i;
+  for (double x : r.values) out << "," << number(x);
+  out << "," << number(s.t_final);
+  for (double x : r.final_q) out << "," << number(x);
+  out << "," << number(s.energy_rel_err_max) << "," << number(s.energy_post_rel_err_max) << ","
+      << number(s.residual_max) << "," << number(s.gap_max) << "," << s.restarts << "," << number(s.parasitic_max);
+  if (has_work) out << "," << number(s.has_work ? s.work : NAN) << "," << number(s.energy_balance_err_max);
+  if (error_estimate) out << "," << number(s.error_estimate);
+  out << "," << to_string(s.status) << "\n";
+}
+
+// The batch's table as CSV: one row per trajectory, in order.
+void write_batch_csv(std::ofstream& out, const std::string& path, const BatchResult& result, bool error_estimate) {
+  const bool has_work = result.aggregate.has_work;
+  csv_header(out, result.varied, result.shown, has_work, error_estimate);
+  for (std::size_t i = 0; i < result.rows.size(); ++i)
+    csv_row(out, static_cast<long>(i), result.rows[i], has_work, error_estimate);
   out.close();
   if (!out) throw std::runtime_error("error writing '" + path + "'");
 }
+
+// Rows as trajectories finish, in the order they finish, flushed one by one, beside the batch's
+// output (OUT.partial.csv; under MPI each rank its own, OUT.partial.rankR.csv): a batch killed
+// before it ends keeps every trajectory that finished (nonholo.load reads the file; the rows
+// carry their trajectory index). Removed once the output is written.
+class Journal {
+ public:
+  Journal(const std::string& out, const BatchProcesses* processes, bool error_estimate)
+      : error_estimate_(error_estimate) {
+    if (out.empty()) return;
+    path_ = out + (processes && processes->size() > 1 ? ".partial.rank" + std::to_string(processes->rank()) : ".partial") +
+            ".csv";
+    file_.open(path_);
+    if (!file_) throw std::invalid_argument("cannot open '" + path_ + "' for writing: " + std::strerror(errno));
+  }
+  // A finished row (several threads: one at a time). The header comes with the first: its
+  // names (body 0's coordinates) are known once a trajectory was set up.
+  void add(long i, const BatchResult::Trajectory& row, const std::vector<std::string>& varied,
+           const std::vector<std::string>& names) {
+    if (path_.empty()) return;
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (!header_) {
+      has_work_ = row.summary.has_work;
+      csv_header(file_, varied, std::vector<std::string>(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(row.final_q.size())),
+                 has_work_, error_estimate_);
+      header_ = true;
+    }
+    std::ostringstream line;  // whole, then one write: a kill leaves no half row
+    csv_row(line, i, row, has_work_, error_estimate_);
+    file_ << line.str();
+    file_.flush();
+  }
+  void remove() {
+    if (path_.empty()) return;
+    file_.close();
+    std::remove(path_.c_str());
+  }
+
+ private:
+  std::string path_;
+  std::ofstream file_;
+  std::mutex mutex_;
+  bool header_ = false, has_work_ = false, error_estimate_;
+};
 
 }  // namespace
 
@@ -95,11 +147,8 @@ std::string BatchResult::line() const {
 }
 
 BatchResult run_batch(const BatchConfig& config) {
-  if (config.processes && !config.processes->writes() && !config.out.empty()) {
-    BatchConfig quiet = config;  // only the writing process opens the output
-    quiet.out.clear();
-    return run_batch(quiet);
-  }
+  // Only the writing process opens the output; every process journals its own rows.
+  const std::string out_path = !config.processes || config.processes->writes() ? config.out : std::string();
   const auto start = std::chrono::steady_clock::now();
   if (config.count < 1) throw std::invalid_argument("--count " + std::to_string(config.count) + ": must be at least 1");
   if (config.threads < 0) throw std::invalid_argument("--threads " + std::to_string(config.threads) + ": must be positive");
@@ -116,10 +165,26 @@ BatchResult run_batch(const BatchConfig& config) {
     check.set(variations.back().name, variations.back().lo);
   }
   std::ofstream out;
-  if (!config.out.empty()) {
-    out.open(config.out);
-    if (!out) throw std::invalid_argument("cannot open '" + config.out + "' for writing: " + std::strerror(errno));
+  if (!out_path.empty()) {
+    out.open(out_path);
+    if (!out) throw std::invalid_argument("cannot open '" + out_path + "' for writing: " + std::strerror(errno));
   }
+  std::vector<std::string> varied;
+  for (const auto& v : variations) varied.push_back(v.name);
+  Journal journal(config.out, config.processes, config.run.error_estimate);
+  // A finished row into the journal: body 0's first three coordinates (NaN where there are fewer
+  // or the set-up failed), as the table shows them.
+  const auto journal_row = [&](long i, const Row& row) {
+    BatchResult::Trajectory r{row.values, std::vector<double>(3, std::numeric_limits<double>::quiet_NaN()), row.summary};
+    for (Eigen::Index c = 0; c < std::min<Eigen::Index>(3, row.final_q.size()); ++c) r.final_q[static_cast<std::size_t>(c)] = row.final_q[c];
+    if (!row.error.empty()) {
+      r.summary.status = Status::InvalidInput;
+      r.summary.message = row.error;
+    }
+    std::vector<std::string> names3 = row.names;
+    if (names3.size() < 3) names3 = {"q0", "q1", "q2"};
+    journal.add(i, r, varied, names3);
+  };
 
   check_batch_memory(config);
   const int threads = batch_threads(config.threads);
@@ -169,6 +234,8 @@ BatchResult run_batch(const BatchConfig& config) {
     errors = parallel_for(config.count, threads, [&](long i, int) {
       Row row;  // a failed set-up keeps its drawn values in the table
       const std::string error = capture_error([&] { integrate_row(i, row); });
+      row.error = error;
+      journal_row(i, row);
       keep(i, row);
       if (!error.empty()) throw std::runtime_error(error);
     });
@@ -177,9 +244,11 @@ BatchResult run_batch(const BatchConfig& config) {
     auto items = config.processes->run(config.count, threads, config.command, [&](long i, int) {
       Row row;
       row.error = capture_error([&] { integrate_row(i, row); });
+      journal_row(i, row);
       return pack_row(row);
     });
     if (!config.processes->writes()) {
+      journal.remove();  // its rows reached the writing process
       BatchResult share;
       share.trajectories = config.count;
       share.threads = threads;
@@ -276,19 +345,20 @@ BatchResult run_batch(const BatchConfig& config) {
     }
   }
   const std::size_t shown = std::min<std::size_t>(3, names.size());
-  for (const auto& v : variations) result.varied.push_back(v.name);
+  result.varied = varied;
   result.shown.assign(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(shown));
   for (BatchResult::Trajectory& r : rows) r.final_q.resize(shown, std::numeric_limits<double>::quiet_NaN());
   result.rows = std::move(rows);
 
   if (out.is_open()) {  // CSV, or HDF5 by the extension (hdf5_output.hpp)
-    if (is_hdf5_path(config.out)) {
+    if (is_hdf5_path(out_path)) {
       out.close();  // it only checked that the path is writable, before integrating
-      write_batch_hdf5(config.out, config, prepared.info.name, result);
+      write_batch_hdf5(out_path, config, prepared.info.name, result);
     } else {
-      write_batch_csv(out, config.out, result, config.run.error_estimate);
+      write_batch_csv(out, out_path, result, config.run.error_estimate);
     }
   }
+  journal.remove();
   agg.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

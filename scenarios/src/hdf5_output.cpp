@@ -153,6 +153,11 @@ struct Hdf5RunWriter::Impl {
   hsize_t n = 0, buffer_rows = 1, buffered = 0;
   std::vector<std::string> velocities;  // names of p's entries (FrameSink::velocities)
   bool reopened = false;                 // continuing a file (its datasets exist)
+
+  // From here on the file is written in HDF5's single-writer/multiple-reader mode: its metadata
+  // reach the disk in an order that keeps the file readable at any moment (h5py: swmr=True, or
+  // nonholo.load), so that a run killed with -9 leaves every frame of the last flush readable.
+  void start_swmr() { check(H5Fstart_swmr_write(file.get()), path, "start SWMR writing"); }
   hsize_t frames_at_open = 0;            // then: the frames the checkpoint counted
   Growing t, q, p, energy, energy_post, residual, gap;
   std::vector<double> bt, bq, bp, be, bep, br, bg;  // frames not yet written
@@ -175,7 +180,7 @@ Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig& config, c
     : impl_(std::make_unique<Impl>()) {
   const Quiet quiet;
   impl_->path = path;
-  impl_->file = create_file(path);
+  impl_->file = create_file(path, true);
   attribute(impl_->file.get(), path, "format", std::string("nonholo run"));
   describe_run(impl_->file.get(), path, config, scene, &params);
 }
@@ -194,7 +199,10 @@ Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long frames) : impl_(std::
   impl_->path = path;
   impl_->reopened = true;
   impl_->frames_at_open = static_cast<hsize_t>(frames);
-  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  // A file killed while SWMR writing keeps that mark: cleared, as h5clear -s would.
+  Handle fapl = check(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, path, "make a file access list");
+  check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_LATEST, H5F_LIBVER_LATEST), path, "ask for the latest format");
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get());
   if (f < 0) throw std::invalid_argument("cannot continue '" + path + "': cannot open it for writing (HDF5)");
   impl_->file = Handle(f, H5Fclose);
   // The summary of the run that wrote the checkpoint's end, if it finished: finish() writes anew.
@@ -217,6 +225,7 @@ void Hdf5RunWriter::begin(const std::vector<std::string>& coordinates) {
     w.energy_post = Growing::reopen(f, w.path, "energy_post", 0, rows);
     w.residual = Growing::reopen(f, w.path, "residual", 0, rows);
     w.gap = Growing::reopen(f, w.path, "gap", 0, rows);
+    w.start_swmr();
     return;
   }
   w.t = Growing(f, w.path, "t", 0, w.buffer_rows);
@@ -230,6 +239,7 @@ void Hdf5RunWriter::begin(const std::vector<std::string>& coordinates) {
   w.gap = Growing(f, w.path, "gap", 0, w.buffer_rows);
   write_column(f, w.path, "coordinates", coordinates);
   if (!w.velocities.empty() && w.velocities != coordinates) write_column(f, w.path, "velocities", w.velocities);
+  w.start_swmr();
 }
 
 void Hdf5RunWriter::velocities(const std::vector<std::string>& names) { impl_->velocities = names; }
@@ -266,8 +276,13 @@ void Hdf5RunWriter::finish(const RunSummary& summary) {
   const Quiet quiet;
   Impl& w = *impl_;
   if (w.buffered > 0) w.flush();
-  describe_summary(w.file.get(), w.path, summary);
   for (Growing* d : {&w.t, &w.q, &w.p, &w.energy, &w.energy_post, &w.residual, &w.gap}) *d = Growing();
+  // SWMR writing creates no objects: the summary goes in after the frames, the file reopened.
+  if (!w.file.reset()) fail(w.path, "close the file");
+  const hid_t f = H5Fopen(w.path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  if (f < 0) fail(w.path, "reopen the file for the summary");
+  w.file = Handle(f, H5Fclose);
+  describe_summary(w.file.get(), w.path, summary);
   if (!w.file.reset()) fail(w.path, "close the file");
 }
 

@@ -63,8 +63,11 @@ inline void check(herr_t status, const std::string& path, const std::string& wha
   if (status < 0) fail(path, what);
 }
 
-inline Handle create_file(const std::string& path) {
-  const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+// swmr: in the latest file format, which single-writer/multiple-reader writing needs.
+inline Handle create_file(const std::string& path, bool swmr = false) {
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  if (swmr && fapl) H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_LATEST, H5F_LIBVER_LATEST);
+  const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl ? fapl.get() : H5P_DEFAULT);
   if (f < 0) throw std::invalid_argument("cannot open '" + path + "' for writing (HDF5)");
   return Handle(f, H5Fclose);
 }

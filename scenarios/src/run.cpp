@@ -193,6 +193,9 @@ double balance_error(double energy, double initial, double work, double floor) {
   return scale > 0.0 ? diff / scale : diff;
 }
 
+// The output files are flushed to disk at least this often (when frames come).
+constexpr double kFlushSeconds = 2.0;
+
 // A run takes at most this many steps (prepare_run).
 constexpr double kMaxSteps = 1e12;
 
@@ -581,6 +584,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     loop.lever_arm = hitch_lever_arm(model, runner->q(), runner->workspace());
     if (csv) csv->row(runner->t(), runner->q(), d0);
     for (FrameSink* s : sinks) s->frame(runner->t(), runner->q(), runner->p(), d0);
+    if (h5) h5->flush_to_disk();  // a valid file from the start (HDF5 writes its metadata at a flush)
     if (!finite(d0)) {
       summary.status = Status::NonFiniteState;
       summary.message = "the initial state is out of range: " + describe(d0) +
@@ -610,7 +614,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   std::string& companion_failure = loop.companion_failure;
   // The checkpoint: the loop's state at the end of step k, the outputs flushed first so that the
   // position it records is on disk.
-  auto last_checkpoint = Clock::now();
+  auto last_checkpoint = Clock::now(), last_flush = Clock::now();
   auto write_checkpoint_now = [&](long k) {
     if (csv) loop.output_position = csv->flush_to_disk();
     if (h5) loop.output_position = h5->flush_to_disk();
@@ -734,6 +738,12 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
       const auto out_start = Clock::now();
       if (csv) csv->row(runner->t(), runner->q(), d);
       for (FrameSink* s : sinks) s->frame(runner->t(), runner->q(), runner->p(), d);
+      // On disk every few seconds: a killed run keeps what was written up to the last flush.
+      if ((csv || h5) && std::chrono::duration<double>(out_start - last_flush).count() >= kFlushSeconds) {
+        if (csv) csv->flush_to_disk();
+        if (h5) h5->flush_to_disk();
+        last_flush = Clock::now();
+      }
       output_s += seconds_since(out_start);
     }
     if (summary.status == Status::Ok && checkpoint_due(k)) {

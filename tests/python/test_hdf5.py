@@ -9,6 +9,8 @@ import time
 import numpy as np
 import pytest
 
+import nonholo
+
 from support import CLI, cli, read_csv as table, summary_of
 
 h5py = pytest.importorskip("h5py")
@@ -144,3 +146,25 @@ def test_a_resumed_run_continues_its_hdf5_file_bit_for_bit(tmp_path):
     with h5py.File(tmp_path / "ck.h5", "r") as c:  # readable beside the bytes
         assert text(c.attrs["format"]) == "nonholo checkpoint" and c.attrs["step"] == 60
         assert c["q"].shape == (90,) and c.attrs["t"] == 3.0
+
+
+def test_a_killed_run_leaves_a_readable_file_of_the_runs_frames(tmp_path):
+    # kill -9 at five moments of a long HDF5 run: the file opens (nonholo.load; h5py with
+    # swmr=True), and its frames are the first frames of the run, bit for bit (a run to the
+    # last one's step reproduces them). The file is flushed at the start and every 2 s.
+    args = ["run", "sleigh_chain", "--set", "bodies=100"]
+    for i, delay in enumerate([0.2, 1.0, 2.6, 3.3, 4.8]):
+        path = tmp_path / ("killed%d.h5" % i)
+        child = subprocess.Popen([CLI, *args, "--t-end", "1e6", "--out", str(path)],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        child.send_signal(signal.SIGKILL)
+        child.wait()
+        back = nonholo.load(path)
+        frames = back.t.shape[0]
+        assert frames >= 1 and back.q.shape == (frames, 300) and back.summary == {}
+        if frames > 1:
+            again = nonholo.run(args[1], set={"bodies": 100}, t_end=float(back.t[-1]))
+            assert again.t.shape[0] == frames
+            assert np.array_equal(again.q.view(np.uint64), back.q.view(np.uint64)), delay
+            assert np.array_equal(again.p.view(np.uint64), back.p.view(np.uint64)), delay

@@ -71,3 +71,34 @@ def test_a_run_resumed_from_python_goes_on_bit_for_bit(tmp_path):
         nonholo.run(resume=tmp_path / "ck.h5", order=6)
     with pytest.raises(ValueError, match="--resume .*: cannot read it"):
         nonholo.run(resume=tmp_path / "missing.h5")
+
+
+def test_a_killed_batch_keeps_every_finished_row(tmp_path):
+    # Rows go to OUT.partial.csv as trajectories finish: kill -9 the batch once some have, and
+    # each row there is, to the last character, the complete batch's row of that trajectory.
+    import signal
+    import subprocess
+    import time
+    from support import CLI, cli
+    args = ["batch", "sleigh_chain", "--set", "bodies=150", "--count", "60", "--t-end", "30",
+            "--vary", "omega0=0.5:1.5", "--threads", "2"]
+    out = tmp_path / "killed.csv"
+    journal = tmp_path / "killed.csv.partial.csv"
+    child = subprocess.Popen([CLI, *args, "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 60
+    while time.time() < deadline and (not journal.exists() or len(journal.read_text().splitlines()) < 6):
+        time.sleep(0.05)
+    child.send_signal(signal.SIGKILL)
+    child.wait()
+    kept = journal.read_text().splitlines()
+    assert len(kept) >= 6, "no rows were journaled before the kill"
+    done = cli(*args, "--out", str(tmp_path / "whole.csv"))
+    assert done.returncode == 0, done.stderr
+    whole = (tmp_path / "whole.csv").read_text().splitlines()
+    assert not (tmp_path / "whole.csv.partial.csv").exists()  # removed once the output is written
+    assert kept[0] == whole[0]  # the same header
+    rows = {line.split(",", 1)[0]: line for line in whole[1:]}
+    for line in kept[1:]:
+        assert line == rows[line.split(",", 1)[0]]
+    back = nonholo.load(journal)
+    assert len(back.columns["trajectory"]) == len(kept) - 1

@@ -25,6 +25,7 @@ class BatchProcesses {
   virtual ~BatchProcesses() = default;
   virtual int size() const = 0;
   virtual bool writes() const = 0;
+  virtual int rank() const { return 0; }  // this process's number (the writing one is 0)
   // Collective: job(i, thread) once for each i in [0, count) on some process, `threads`
   // threads on each; every item in index order on the writing process, none elsewhere.
   // Throws on every process when one of them called abandon() instead, or when their
