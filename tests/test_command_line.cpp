@@ -197,6 +197,25 @@ TEST(CommandLine, AdaptiveStepsLandOnTheOutputTimes) {
   std::remove(path.c_str());
 }
 
+// --out -: the CSV on standard output (what a file would hold, to the last digit), the summary
+// line on standard error.
+TEST(CommandLine, OutDashWritesTheCsvToStandardOutput) {
+  const std::string path = temp_path("dash.csv");
+  const Result file = run({"run", "sleigh", "--t-end", "0.5", "--out", path});
+  ASSERT_EQ(file.code, 0) << file.err;
+  std::ifstream in(path);
+  std::stringstream csv;
+  csv << in.rdbuf();
+  ::testing::internal::CaptureStdout();
+  const Result dash = run({"run", "sleigh", "--t-end", "0.5", "--out", "-"});
+  const std::string printed = ::testing::internal::GetCapturedStdout();
+  ASSERT_EQ(dash.code, 0) << dash.err;
+  EXPECT_EQ(printed, csv.str());
+  EXPECT_EQ(dash.out, "");
+  EXPECT_THAT(dash.err, StartsWith("scene=sleigh "));
+  std::remove(path.c_str());
+}
+
 TEST(CommandLine, SnakeboardCsvHeader) {
   const std::string path = temp_path("board.csv");
   ASSERT_EQ(run({"run", "snakeboard", "--t-end", "0.1", "--out", path}).code, 0);
@@ -236,6 +255,10 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"run", "sleigh", "--method", "euler"},
                  "unknown method 'euler' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner, arkode-fehlberg8)");
   expect_failure({"run", "sleigh", "--project"}, "--project applies to the methods rk4, arkode-dp5, arkode-verner and arkode-fehlberg8");
+  expect_failure({"run", "sleigh", "--out", "x.txt"},
+                 "--out x.txt: name the file .csv (text) or .h5 / .hdf5 (HDF5), or give - for CSV on standard output");
+  expect_failure({"batch", "sleigh", "--count", "2", "--out", "x.dat"}, "--out x.dat: name the file .csv (text) or .h5 / .hdf5 (HDF5)");
+  expect_failure({"run", "sleigh", "--out", "-", "--checkpoint", "x.h5"}, "--checkpoint with --out -: a resumed run cannot continue standard output");
   expect_failure({"run", "sleigh", "--method", "rk4", "--tol", "1e-6"},
                  "--tol applies to the reflection method (adaptive steps) and to arkode-dp5, arkode-verner and arkode-fehlberg8");
   expect_failure({"run", "sleigh", "--order", "6", "--tol", "1e-6", "--error-estimate"},

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -184,6 +185,74 @@ TEST(MpiBatch, OnlyBatchIsSpread) {
   const Launch one = mpirun(1, "run sleigh --t-end 1");
   EXPECT_EQ(one.code, 0) << one.err;
   EXPECT_EQ(comparable(one.out), comparable(alone("run sleigh --t-end 1").out));
+}
+
+// Ctrl-C to mpirun, once some rows are done (the ranks' journals, OUT.partial.rankR.csv, have
+// them): mpirun sends its ranks SIGTERM, they stop at their next step as one process stops on
+// Ctrl-C, and rank 0 writes the table: every finished row is the one-process batch's, the others
+// say interrupted, the summary is printed, the exit code is not 0; the journals are gone.
+TEST(MpiBatch, CtrlCKeepsTheFinishedRowsLikeOneProcess) {
+  const std::string batch = "batch sleigh_chain --count 90 --set bodies=150 --vary omega0=0.5:1.5 --t-end 60";
+  const std::string spread = temp("ctrl_c.csv"), single = temp("ctrl_c_single.csv"), out = temp("ctrl_c_out.txt"),
+                    err = temp("ctrl_c_err.txt"), pid = temp("ctrl_c.pid");
+  const std::string cmd = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " + std::string(NONHOLO_MPIEXEC) +
+                          " -n 3 --oversubscribe " + NONHOLO_CLI + " " + batch + " --threads 1 --out " + spread + " > " +
+                          out + " 2> " + err + " & echo $! > " + pid + "; wait $!; echo $? >> " + pid;
+  std::FILE* shell = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(shell, nullptr);
+  // Wait for finished rows in the journals (at most a minute), then Ctrl-C.
+  long journaled = 0;
+  for (int i = 0; i < 1200 && journaled < 6; ++i) {
+    ::usleep(50000);
+    journaled = 0;
+    for (int r = 0; r < 3; ++r) journaled += std::max(0L, lines(slurp(spread + ".partial.rank" + std::to_string(r) + ".csv")) - 1);
+  }
+  std::istringstream ids(slurp(pid));
+  long mpirun_pid = 0;
+  ids >> mpirun_pid;
+  ASSERT_GT(mpirun_pid, 0);
+  ::kill(static_cast<pid_t>(mpirun_pid), SIGINT);
+  ::pclose(shell);
+  std::istringstream after(slurp(pid));
+  long ignored = 0, code = -1;
+  after >> ignored >> code;
+  EXPECT_NE(code, 0) << slurp(err);  // mpirun exits 1 after a Ctrl-C whatever its ranks return
+  const std::string printed = slurp(out);
+  EXPECT_EQ(lines(printed), 1) << printed << slurp(err);
+  EXPECT_THAT(printed, HasSubstr(" ranks=3"));
+  EXPECT_THAT(slurp(err), HasSubstr("interrupted (SIGTERM)"));
+  for (int r = 0; r < 3; ++r) EXPECT_FALSE(std::filesystem::exists(spread + ".partial.rank" + std::to_string(r) + ".csv"));
+  // The finished rows against one process's batch of as many trajectories as reach the last of
+  // them (a trajectory's row depends on the seed and its index only).
+  std::istringstream cut(slurp(spread));
+  std::vector<std::string> b;
+  for (std::string line; std::getline(cut, line);) b.push_back(line);
+  ASSERT_EQ(b.size(), 91u);
+  auto interrupted = [](const std::string& row) {
+    return row.size() >= 12 && row.compare(row.size() - 12, 12, ",interrupted") == 0;
+  };
+  long last = 0, finished = 0, stopped = 0;
+  for (std::size_t i = 1; i < b.size(); ++i) {
+    if (interrupted(b[i])) {
+      ++stopped;
+    } else {
+      ++finished;
+      last = static_cast<long>(i);
+    }
+  }
+  EXPECT_GE(finished, 6) << "the rows journaled before Ctrl-C";
+  EXPECT_GT(stopped, 0);
+  const auto one = alone(std::regex_replace(batch, std::regex("--count 90"), "--count " + std::to_string(last)) +
+                         " --threads 2 --out " + single);
+  ASSERT_EQ(one.code, 0) << one.err;
+  std::istringstream whole(slurp(single));
+  std::vector<std::string> a;
+  for (std::string line; std::getline(whole, line);) a.push_back(line);
+  ASSERT_EQ(a.size(), static_cast<std::size_t>(last + 1));
+  EXPECT_EQ(a[0], b[0]) << "the header";
+  for (long i = 1; i <= last; ++i)
+    if (!interrupted(b[static_cast<std::size_t>(i)])) EXPECT_EQ(a[static_cast<std::size_t>(i)], b[static_cast<std::size_t>(i)]) << "row " << i;
+  for (const auto& f : {spread, single, out, err, pid}) std::remove(f.c_str());
 }
 
 }  // namespace

@@ -134,6 +134,16 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   run.hitch = hitch_mode_from_string(o.hitch);
 }
 
+// "nonholo run sleigh --dt 0.1": the words as given, quoted where a shell would need it.
+std::string command_of(const std::string& command, const std::vector<std::string>& args) {
+  std::string line = command.empty() ? "nonholo" : "nonholo " + command;
+  for (const auto& a : args) {
+    const bool plain = !a.empty() && a.find_first_of(" \t'\"\\$`") == std::string::npos;
+    line += " " + (plain ? a : "'" + a + "'");
+  }
+  return line;
+}
+
 bool is_checkpoint_path(const std::string& path) {
   auto ends = [&](const char* e, std::size_t n) { return path.size() > n && path.compare(path.size() - n, n, e) == 0; };
   return ends(".h5", 3) || ends(".hdf5", 5);
@@ -180,7 +190,9 @@ void finish_run_command(const CLI::App* cmd, RunConfig& run, const std::string& 
 // The options of the run and batch commands, on their subcommands.
 void add_run_command(CLI::App* cmd, RunOptions& run, std::string& checkpoint_every) {
   add_run_options(cmd, run);
-  cmd->add_option("--out", run.config.csv_path, "write the trajectory to this CSV file");
+  cmd->add_option("--out", run.config.csv_path,
+                  "write the trajectory to FILE.csv, or FILE.h5 / FILE.hdf5 (HDF5, with p, gap and the summary), or "
+                  "- (CSV on standard output; the summary line then goes to standard error)");
   cmd->add_option("--every", run.config.every, "write every K-th step to the CSV (default 1)");
   cmd->add_option("--checkpoint", run.config.checkpoint_path,
                   "write the run's whole state to this HDF5 file at its end (also when it fails or is "
@@ -309,6 +321,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     }
     if (batch_cmd->parsed()) {
       finish_batch_command(batch_cmd, batch_run, batch);
+      batch.run.command_line = command_of("", std::vector<std::string>(argv + 1, argv + argc));
       batch.processes = processes;
       InterruptScope on_ctrl_c;  // Ctrl-C: finish the rows, print the summary, exit 130
       const BatchResult result = run_batch(batch);
@@ -324,9 +337,10 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     }
     finish_run_options(run_cmd, run);
     finish_run_command(run_cmd, run.config, checkpoint_every);
+    run.config.command_line = command_of("", std::vector<std::string>(argv + 1, argv + argc));
     InterruptScope on_ctrl_c;
     const RunSummary summary = run_scene(run.config);
-    out << summary.line() << std::endl;
+    (run.config.csv_path == "-" ? err : out) << summary.line() << std::endl;  // --out -: the CSV is stdout
     if (!summary.warning.empty()) err << "nonholo run: warning: " << summary.warning << std::endl;
     if (summary.status != Status::Ok) {
       err << "nonholo run: " << summary.message << std::endl;
@@ -350,6 +364,7 @@ RunConfig parse_run_arguments(const std::vector<std::string>& args) {
   parse_command(app, "run", args);
   finish_run_options(cmd, run);
   finish_run_command(cmd, run.config, checkpoint_every);
+  run.config.command_line = command_of("run", args) + " (from Python)";
   return run.config;
 }
 
@@ -361,6 +376,7 @@ BatchConfig parse_batch_arguments(const std::vector<std::string>& args) {
   add_batch_command(cmd, batch_run, batch);
   parse_command(app, "batch", args);
   finish_batch_command(cmd, batch_run, batch);
+  batch.run.command_line = command_of("batch", args) + " (from Python)";
   return batch;
 }
 

@@ -46,7 +46,7 @@ bool stop_before_start(const RunConfig& config, const PreparedRun& prepared, Run
   summary.scene = prepared.info.name;
   summary.method = config.method;
   summary.status = Status::Interrupted;
-  summary.message = std::string(ctrl_c ? "interrupted (SIGINT)" : "interrupted by the caller") +
+  summary.message = (ctrl_c ? std::string("interrupted (") + interrupt_name() + ")" : std::string("interrupted by the caller")) +
                     " before this trajectory started";
   summary.t_final = std::numeric_limits<double>::quiet_NaN();
   return true;
@@ -149,6 +149,9 @@ std::string BatchResult::line() const {
 BatchResult run_batch(const BatchConfig& config) {
   // Only the writing process opens the output; every process journals its own rows.
   const std::string out_path = !config.processes || config.processes->writes() ? config.out : std::string();
+  if (!config.out.empty() && !is_hdf5_path(config.out) &&
+      !(config.out.size() > 4 && config.out.compare(config.out.size() - 4, 4, ".csv") == 0))
+    throw std::invalid_argument("--out " + config.out + ": name the file .csv (text) or .h5 / .hdf5 (HDF5)");
   const auto start = std::chrono::steady_clock::now();
   if (config.count < 1) throw std::invalid_argument("--count " + std::to_string(config.count) + ": must be at least 1");
   if (config.threads < 0) throw std::invalid_argument("--threads " + std::to_string(config.threads) + ": must be positive");
@@ -353,7 +356,10 @@ BatchResult run_batch(const BatchConfig& config) {
   if (out.is_open()) {  // CSV, or HDF5 by the extension (hdf5_output.hpp)
     if (is_hdf5_path(out_path)) {
       out.close();  // it only checked that the path is writable, before integrating
-      write_batch_hdf5(out_path, config, prepared.info.name, result);
+      BatchConfig used = config;
+      used.run.dt = prepared.dt;
+      used.run.t_end = prepared.t_end;
+      write_batch_hdf5(out_path, used, prepared.info.name, result, prepared.steps);
     } else {
       write_batch_csv(out, out_path, result, config.run.error_estimate);
     }

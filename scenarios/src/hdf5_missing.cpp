@@ -17,7 +17,7 @@ namespace {
 
 struct Hdf5RunWriter::Impl {};
 
-Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig&, const std::string&, const Parameters&) {
+Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig&, const std::string&, const Parameters&, long) {
   missing(path);
 }
 Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long) { missing(path); }
@@ -40,7 +40,7 @@ std::string read_checkpoint(const std::string& path, CheckpointInfo*) {
                               "Debian, and rebuild)");
 }
 
-void write_batch_hdf5(const std::string& path, const BatchConfig&, const std::string&, const BatchResult&) {
+void write_batch_hdf5(const std::string& path, const BatchConfig&, const std::string&, const BatchResult&, long) {
   missing(path);
 }
 

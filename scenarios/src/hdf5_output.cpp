@@ -3,12 +3,14 @@
 // becomes our exception with the path and what failed, not a stack dump on stderr).
 #include "hdf5_output.hpp"
 #include "hdf5_util.hpp"
+#include "output/xdmf.hpp"
 
 #include <hdf5.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>
@@ -16,9 +18,19 @@
 namespace nonholo::scenarios {
 namespace {
 
-// The run's options and the scene on the root, the scene's parameters on /parameters.
+// What the numbers are in (README "Units"): no unit is fixed, the scene's parameters give them.
+constexpr const char* kUnits =
+    "consistent units, SI suggested (m, kg, s, rad): lengths, masses and times in the units of the scene's "
+    "parameters, angles in radians, t in the time unit, p in mass x length / time";
+
+// The run's options and the scene on the root, the scene's parameters on /parameters. `c` has the
+// dt and t_end the run used (not the 0 and -1 that mean "the scene's"); steps: of dt each.
 void describe_run(hid_t file, const std::string& path, const RunConfig& c, const std::string& scene,
-                  const Parameters* params) {
+                  const Parameters* params, long steps) {
+  attribute(file, path, "nonholo_version", std::string(NONHOLO_VERSION));
+  attribute(file, path, "git_revision", std::string(NONHOLO_GIT_REVISION));  // at configure time
+  attribute(file, path, "units", std::string(kUnits));
+  attribute(file, path, "command", c.command_line);
   attribute(file, path, "scene", scene);
   attribute(file, path, "method", c.method);
   attribute(file, path, "hitch", std::string(to_string(c.hitch)));
@@ -29,10 +41,12 @@ void describe_run(hid_t file, const std::string& path, const RunConfig& c, const
   attribute(file, path, "order", static_cast<long>(c.order));
   attribute(file, path, "composition", c.composition);
   attribute(file, path, "rotation", c.rotation);
-  attribute(file, path, "dt", c.dt);          // 0: the scene's (the summary has the one used)
-  attribute(file, path, "t_end", c.t_end);    // < 0: the scene's
+  attribute(file, path, "dt", c.dt);
+  attribute(file, path, "t_end", c.t_end);
+  attribute(file, path, "steps", steps);
   attribute(file, path, "every", c.every);
   attribute(file, path, "tol", c.tol);
+  attribute(file, path, "adaptive", static_cast<long>(c.adaptive));
   attribute(file, path, "project", static_cast<long>(c.project));
   attribute(file, path, "error_estimate", static_cast<long>(c.error_estimate));
   if (!params) return;
@@ -153,6 +167,7 @@ struct Hdf5RunWriter::Impl {
   hsize_t n = 0, buffer_rows = 1, buffered = 0;
   std::vector<std::string> velocities;  // names of p's entries (FrameSink::velocities)
   bool reopened = false;                 // continuing a file (its datasets exist)
+  std::vector<std::string> coordinates;  // q's names (the sidecar's columns)
 
   // From here on the file is written in HDF5's single-writer/multiple-reader mode: its metadata
   // reach the disk in an order that keeps the file readable at any moment (h5py: swmr=True, or
@@ -176,13 +191,13 @@ struct Hdf5RunWriter::Impl {
 };
 
 Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig& config, const std::string& scene,
-                             const Parameters& params)
+                             const Parameters& params, long steps)
     : impl_(std::make_unique<Impl>()) {
   const Quiet quiet;
   impl_->path = path;
   impl_->file = create_file(path, true);
   attribute(impl_->file.get(), path, "format", std::string("nonholo run"));
-  describe_run(impl_->file.get(), path, config, scene, &params);
+  describe_run(impl_->file.get(), path, config, scene, &params, steps);
 }
 
 Hdf5RunWriter::~Hdf5RunWriter() {
@@ -214,6 +229,7 @@ void Hdf5RunWriter::begin(const std::vector<std::string>& coordinates) {
   Impl& w = *impl_;
   const hid_t f = w.file.get();
   w.n = coordinates.size();
+  w.coordinates = coordinates;
   // About 1 MB of q a chunk (at least one frame); the 1-D series chunk as many frames.
   w.buffer_rows = std::max<hsize_t>(1, (hsize_t{1} << 17) / std::max<hsize_t>(1, w.n));
   if (w.reopened) {
@@ -272,6 +288,29 @@ long Hdf5RunWriter::flush_to_disk() {
   return static_cast<long>(w.t.rows());
 }
 
+namespace {
+// FILE.xdmf beside FILE.h5 (output/xdmf.hpp), from the file's /t and /coordinates.
+void write_sidecar(Hdf5RunWriter::Impl& w) {
+  const hid_t f = w.file.get();
+  Handle t = check(H5Dopen2(f, "t", H5P_DEFAULT), H5Dclose, w.path, "open /t");
+  Handle space = check(H5Dget_space(t.get()), H5Sclose, w.path, "read the size of /t");
+  hsize_t frames = 0;
+  H5Sget_simple_extent_dims(space.get(), &frames, nullptr);
+  std::vector<double> times(static_cast<std::size_t>(frames));
+  if (frames > 0) check(H5Dread(t.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, times.data()), w.path, "read /t");
+  const auto slash = w.path.rfind('/');
+  const std::string name = slash == std::string::npos ? w.path : w.path.substr(slash + 1);
+  const std::string xml = xdmf_for(name, w.coordinates, times);
+  if (xml.empty()) return;
+  const auto dot = w.path.rfind('.');
+  const std::string sidecar = w.path.substr(0, dot) + ".xdmf";
+  std::ofstream out(sidecar);
+  out << xml;
+  out.close();
+  if (!out) throw std::runtime_error("error writing '" + sidecar + "'");
+}
+}  // namespace
+
 void Hdf5RunWriter::finish(const RunSummary& summary) {
   const Quiet quiet;
   Impl& w = *impl_;
@@ -283,16 +322,17 @@ void Hdf5RunWriter::finish(const RunSummary& summary) {
   if (f < 0) fail(w.path, "reopen the file for the summary");
   w.file = Handle(f, H5Fclose);
   describe_summary(w.file.get(), w.path, summary);
+  write_sidecar(w);
   if (!w.file.reset()) fail(w.path, "close the file");
 }
 
 void write_batch_hdf5(const std::string& path, const BatchConfig& config, const std::string& scene,
-                      const BatchResult& result) {
+                      const BatchResult& result, long steps) {
   const Quiet quiet;
   Handle file = create_file(path);
   const hid_t f = file.get();
   attribute(f, path, "format", std::string("nonholo batch"));
-  describe_run(f, path, config.run, scene, nullptr);
+  describe_run(f, path, config.run, scene, nullptr, steps);
   attribute(f, path, "count", config.count);
   attribute(f, path, "seed", static_cast<long>(config.seed));
   for (const auto& v : config.vary) attribute(f, path, "vary " + v.substr(0, v.find('=')), v);

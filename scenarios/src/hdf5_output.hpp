@@ -26,9 +26,10 @@ inline bool is_hdf5_path(const std::string& path) {
 class Hdf5RunWriter final : public FrameSink {
  public:
   // Creates the file (throws std::invalid_argument when it cannot, or without HDF5) and
-  // writes the attributes known before the run.
+  // writes the attributes known before the run: `config` with the dt and t_end used, `steps`
+  // of dt (output intervals for adaptive steps).
   Hdf5RunWriter(const std::string& path, const RunConfig& config, const std::string& scene,
-                const Parameters& params);
+                const Parameters& params, long steps);
   // Continues the file of a run resumed from a checkpoint that counted `frames` frames: frames
   // after those are dropped, the summary is written anew by finish(). Throws
   // std::invalid_argument when the file is missing, unwritable or holds fewer frames.
@@ -51,6 +52,6 @@ class Hdf5RunWriter final : public FrameSink {
 
 // The batch's table (BatchResult::rows) as datasets; throws like the writer above.
 void write_batch_hdf5(const std::string& path, const BatchConfig& config, const std::string& scene,
-                      const BatchResult& result);
+                      const BatchResult& result, long steps);
 
 }  // namespace nonholo::scenarios

@@ -6,10 +6,13 @@
 namespace nonholo::scenarios {
 
 bool interrupt_requested();
+const char* interrupt_name();  // "SIGINT" (Ctrl-C) or "SIGTERM" (mpirun's, kill's)
 // For tests and for a caller with its own handler: ask the loops to stop.
 void request_interrupt();
 
-// SIGINT sets the flag while in scope; the previous handler and a clear flag come back after.
+// SIGINT and SIGTERM set the flag while in scope (mpirun turns Ctrl-C into SIGTERM for its
+// ranks, and a SIGKILL a second later unless it is told to wait: README "MPI ensembles"); the
+// previous handlers and a clear flag come back after.
 class InterruptScope {
  public:
   InterruptScope();
@@ -19,6 +22,7 @@ class InterruptScope {
 
  private:
   void (*previous_)(int);
+  void (*previous_term_)(int);
 };
 
 }  // namespace nonholo::scenarios

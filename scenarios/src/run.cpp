@@ -65,6 +65,14 @@ RestScales rest_scales(const Model& model, double t, ConstVecRef q, double h) {
   return {0.5 * h * h * f.dot(scratch), h * scratch.lpNorm<Eigen::Infinity>()};
 }
 
+// The options with the dt and t_end the run uses (for the output files' attributes).
+RunConfig resolved(const RunConfig& config, const PreparedRun& run) {
+  RunConfig c = config;
+  c.dt = run.dt;
+  c.t_end = run.t_end;
+  return c;
+}
+
 // What the run loop carries from one step to the next besides the runner and the watches: what
 // a checkpoint saves of it (every value the later steps or the summary read).
 struct LoopState {
@@ -109,8 +117,9 @@ struct LoopState {
 // has three million numbers: no buffer of its size).
 class CsvWriter {
  public:
-  CsvWriter(const std::string& path, const std::vector<std::string>& coordinates) : path_(path) {
-    file_ = std::fopen(path.c_str(), "w");
+  CsvWriter(const std::string& path, const std::vector<std::string>& coordinates)
+      : path_(path == "-" ? "standard output" : path), stdout_(path == "-") {
+    file_ = stdout_ ? stdout : std::fopen(path.c_str(), "w");
     if (!file_)
       throw std::invalid_argument("cannot open '" + path + "' for writing: " + std::strerror(errno));
     std::string header = "t";
@@ -138,11 +147,11 @@ class CsvWriter {
                                   ": not the output of this run");
   }
   ~CsvWriter() {
-    if (file_) std::fclose(file_);
+    if (file_ && !stdout_) std::fclose(file_);
   }
   // Writes what is buffered to the file and flushes it (a checkpoint's moment): the bytes so far.
   long flush_to_disk() {
-    if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0)
+    if (std::fflush(file_) != 0 || (!stdout_ && ::fsync(::fileno(file_)) != 0))
       throw std::runtime_error("error writing '" + path_ + "': " + std::strerror(errno));
     return written_;
   }
@@ -159,7 +168,7 @@ class CsvWriter {
   // Flushes and reports a write error (disk full, ...) as an exception.
   void close() {
     const bool bad = std::ferror(file_) != 0;
-    const int rc = std::fclose(file_);
+    const int rc = stdout_ ? std::fflush(file_) : std::fclose(file_);
     file_ = nullptr;
     if (bad || rc != 0) throw std::runtime_error("error writing '" + path_ + "': " + std::strerror(errno));
   }
@@ -180,6 +189,7 @@ class CsvWriter {
     *p++ = ',';
   }
   std::string path_;
+  bool stdout_ = false;  // --out -
   long written_ = 0;  // bytes handed to the file
   std::FILE* file_ = nullptr;
   char buffer_[kBuffer];
@@ -423,11 +433,18 @@ PreparedRun prepare_run(const RunConfig& config) {
     throw std::invalid_argument(os.str());
   }
   r.steps = static_cast<long>(std::ceil(ratio * (1.0 - 1e-12)));
+  r.t_end = t_end;
   if (config.error_estimate) r.companion = companion_of(r.choice);
   if (!(config.accuracy >= 0.0) || !std::isfinite(config.accuracy))
     throw std::invalid_argument("--accuracy " + std::to_string(config.accuracy) +
                                 ": must be a fraction of the motion's extent, at least 0 (0: off)");
   r.choice.accuracy_every = config.accuracy > 0.0 ? kAccuracyEvery : 0;
+  if (!config.csv_path.empty() && !is_hdf5_path(config.csv_path) && config.csv_path != "-" &&
+      !(config.csv_path.size() > 4 && config.csv_path.compare(config.csv_path.size() - 4, 4, ".csv") == 0))
+    throw std::invalid_argument("--out " + config.csv_path +
+                                ": name the file .csv (text) or .h5 / .hdf5 (HDF5), or give - for CSV on standard output");
+  if (!config.checkpoint_path.empty() && config.csv_path == "-")
+    throw std::invalid_argument("--checkpoint with --out -: a resumed run cannot continue standard output; write to a file");
   if (!config.checkpoint_path.empty() && config.method.rfind("arkode", 0) == 0)
     throw std::invalid_argument("--checkpoint: " + config.method +
                                 ": ARKODE keeps its step-size controller's history inside SUNDIALS, which cannot save "
@@ -509,7 +526,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   std::unique_ptr<Hdf5RunWriter> h5;
   if (is_hdf5_path(config.csv_path))
     h5 = resuming ? std::make_unique<Hdf5RunWriter>(config.csv_path, loop.output_position)
-                  : std::make_unique<Hdf5RunWriter>(config.csv_path, config, info.name, params);
+                  : std::make_unique<Hdf5RunWriter>(config.csv_path, resolved(config, run), info.name, params, steps);
   else if (!config.csv_path.empty())
     csv = resuming ? std::make_unique<CsvWriter>(config.csv_path, loop.output_position)
                    : std::make_unique<CsvWriter>(config.csv_path, model.coordinate_names());
@@ -649,7 +666,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     const bool ctrl_c = interrupt_requested();
     if (ctrl_c || (sink && sink->stop_requested()) || (config.stop && config.stop->load(std::memory_order_relaxed))) {
       summary.status = Status::Interrupted;
-      summary.message = std::string(ctrl_c ? "interrupted (SIGINT)" : "interrupted by the caller") + " after step " +
+      summary.message = (ctrl_c ? std::string("interrupted (") + interrupt_name() + ")" : std::string("interrupted by the caller")) + " after step " +
                         std::to_string(k - 1) + " at t = " + std::to_string(t_before) +
                         "; the output holds every row up to there";
       break;

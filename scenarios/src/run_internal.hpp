@@ -21,6 +21,7 @@ struct PreparedRun {
   MethodChoice choice;
   Companion companion;  // --error-estimate
   double dt = 0.0;
+  double t_end = 0.0;  // the one used (the scene's when the config gave none)
   long steps = 0;
   std::string resume;  // checkpoint bytes to continue from (empty: a fresh start)
 };

@@ -25,7 +25,9 @@ class OutArchive {
   const std::string& bytes() const { return bytes_; }
 
  private:
-  void raw(const void* p, std::size_t n) { bytes_.append(static_cast<const char*>(p), n); }
+  void raw(const void* p, std::size_t n) {
+    if (n > 0) bytes_.append(static_cast<const char*>(p), n);  // (an empty vector's data() may be null)
+  }
   std::string bytes_;
 };
 

@@ -21,7 +21,7 @@ void InArchive::raw(void* p, std::size_t n, const char* what) {
   if (bytes_.size() - at_ < n)
     throw std::runtime_error(std::string("checkpoint: the bytes end early (reading ") + what + " at byte " +
                              std::to_string(at_) + " of " + std::to_string(bytes_.size()) + ")");
-  std::memcpy(p, bytes_.data() + at_, n);
+  if (n > 0) std::memcpy(p, bytes_.data() + at_, n);  // (an empty vector's data() may be null)
   at_ += n;
 }
 

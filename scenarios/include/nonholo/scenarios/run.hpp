@@ -63,6 +63,7 @@ struct RunConfig {
   // an error `tol` in q at t_end; dt is then the output interval, which the steps land on.
   bool adaptive = false;
   double horizon = 0.0;  // adaptive: the run length the error budget is spread over (0: t_end)
+  std::string command_line;  // how the run was asked for (the output files' "command" attribute)
 
   // Checkpoints (README "Long runs"): the whole state of the run written to this HDF5 file at
   // its end (also when it fails or is interrupted) and, if set, every so many steps or seconds
