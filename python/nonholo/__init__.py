@@ -74,9 +74,17 @@ class BatchResult(_Result):
     messages  per trajectory: why it failed ("" when it did not)
     summary   the summary line as a dict (trajectories, threads, failed, first_failure too)
     line      the summary line exactly as `nonholo batch` prints it
+    q, p      with states: every trajectory's whole final state, (count, coordinates) and
+              (count, velocities) arrays (NaN rows where a set-up failed); None otherwise
+    coordinates, velocities   their names (None without states)
     """
 
-    __slots__ = ("columns", "messages", "summary", "line")
+    __slots__ = ("columns", "messages", "summary", "line", "q", "p", "coordinates", "velocities")
+
+    def __init__(self, d):
+        for name in ("q", "p", "coordinates", "velocities"):
+            d.setdefault(name, None)
+        super().__init__(d)
 
     def __repr__(self):
         return "<nonholo.BatchResult %s: %d trajectories, %d failed>" % (
@@ -86,7 +94,7 @@ class BatchResult(_Result):
 def _text(name, value):
     """A string argument as the command line gets it; name is the Python keyword. The tool's
     arguments are C strings: a NUL byte would end one there and the rest be lost silently."""
-    text = _os.fspath(value) if name in ("scene", "out", "checkpoint", "resume") else str(value)
+    text = _os.fspath(value) if name in ("scene", "out", "checkpoint", "resume", "states") else str(value)
     if isinstance(text, bytes):
         text = _os.fsdecode(text)
     if "\0" in text:
@@ -224,14 +232,15 @@ def run(scene=None, *, dt=None, t_end=None, set=None, method=None, order=None, h
 def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None, t_end=None, set=None,
           method=None, order=None, hitch=None, backend=None, restart=None, restart_tol=None,
           monitor_every=None, composition=None, error_estimate=False, project=False, tol=None,
-          rotation=None, accuracy=None, check=False):
+          rotation=None, accuracy=None, check=False, states=None):
     """Many trajectories of one scene in parallel, as `nonholo batch` does: count
     trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
     from seed, threads (default: all cores), out (the CLI's CSV, or HDF5 for .h5) and run()'s
     options. Returns a BatchResult; failed trajectories are reported in its columns["status"]
     and messages (check=True raises RunError if any failed). Ctrl-C stops every trajectory at
     its next step and raises KeyboardInterrupt with the BatchResult in its .result: the finished
-    rows as usual, the others with status "interrupted"."""
+    rows as usual, the others with status "interrupted". states=True keeps every trajectory's
+    whole final state in the result's q and p; states=path (.h5) also writes them there."""
     args = _run_arguments("batch", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
                           monitor_every, composition, error_estimate, project, tol, rotation, accuracy)
     args.extend(["--count", _integer("count", count)])
@@ -242,7 +251,9 @@ def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None
     for a in varies:
         args.extend(["--vary", a])
     _option(args, "out", "--out", out, _text)
-    d = _core._batch(args)
+    if states is not None and states is not True and states is not False:
+        _option(args, "states", "--states", states, _text)
+    d = _core._batch(args, bool(states))
     return _finish(BatchResult(d), d, check, "batch")
 
 
@@ -307,6 +318,13 @@ def _load_hdf5(path):
             return RunResult(dict(t=f["t"][()], q=f["q"][()], p=f["p"][()], coordinates=names, velocities=velocities,
                                   energy=f["energy"][()], energy_post=f["energy_post"][()],
                                   residual=f["residual"][()], gap=f["gap"][()], summary=summary, line=""))
+        if kind == "nonholo batch states":
+            def names(key):
+                return [n.decode() if isinstance(n, bytes) else n for n in f[key][()]]
+            status = _np.array([v.decode() if isinstance(v, bytes) else v for v in f["status"][()]])
+            return BatchResult(dict(columns={"trajectory": f["trajectory"][()], "status": status}, messages=[],
+                                    summary={}, line="", q=f["q"][()], p=f["p"][()],
+                                    coordinates=names("coordinates"), velocities=names("velocities")))
         if kind == "nonholo batch":
             columns = {}
             messages = []

@@ -147,8 +147,9 @@ BatchResult run_batch_polling(scenarios::BatchConfig config, std::optional<py::e
 }
 
 // The batch's table as columns (the CSV's, same names and order) and its summary.
-py::dict batch(const std::vector<std::string>& args) {
-  const scenarios::BatchConfig config = scenarios::parse_batch_arguments(args);
+py::dict batch(const std::vector<std::string>& args, bool keep_states) {
+  scenarios::BatchConfig config = scenarios::parse_batch_arguments(args);
+  config.keep_states = keep_states;
   std::optional<py::error_already_set> interrupt;
   BatchResult result = run_batch_polling(config, interrupt);
   const std::size_t rows = result.rows.size();
@@ -201,6 +202,14 @@ py::dict batch(const std::vector<std::string>& args) {
   py::list messages;
   for (const auto& r : result.rows) messages.append(r.summary.message);
   out["messages"] = messages;
+  if (keep_states || !config.states.empty()) {  // count x n, as the --states file's /q and /p
+    auto& s = result.states;
+    const auto count = static_cast<py::ssize_t>(rows);
+    out["coordinates"] = s.coordinates;
+    out["velocities"] = s.velocities;
+    out["q"] = take(std::move(s.q), {count, static_cast<py::ssize_t>(s.coordinates.size())});
+    out["p"] = take(std::move(s.p), {count, static_cast<py::ssize_t>(s.velocities.size())});
+  }
   if (interrupt) out["interrupt"] = interrupt->value();  // raised by the caller with the rows
   return out;
 }
@@ -232,8 +241,9 @@ py::list scenes() {
 void bind_run(py::module_& m) {
   m.def("_run", &run, py::arg("args"),
         "nonholo run with the command line's arguments (the scene first): a dict of the summary and arrays");
-  m.def("_batch", &batch, py::arg("args"),
-        "nonholo batch with the command line's arguments: a dict of the summary and the table's columns");
+  m.def("_batch", &batch, py::arg("args"), py::arg("keep_states") = false,
+        "nonholo batch with the command line's arguments: a dict of the summary and the table's columns (and "
+        "the final states with keep_states)");
   m.def("_scenes", &scenes, "the built-in scenes with their parameters, defaults and descriptions");
 }
 

@@ -212,7 +212,10 @@ void add_batch_command(CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch)
       ->take_all()
       ->allow_extra_args(false);
   cmd->add_option("--seed", batch.seed, "seed of the --vary draws (default 1)");
-  cmd->add_option("--out", batch.out, "write one row per trajectory to this CSV file");
+  cmd->add_option("--out", batch.out, "write one row per trajectory to this CSV file (or .h5: HDF5)");
+  cmd->add_option("--states", batch.states,
+                  "also write every trajectory's whole final state (q and p) to this HDF5 file: /q and /p, one "
+                  "row per trajectory");
 }
 
 // The options as CLI11 writes them to a config file (`name=value` lines in declaration order,

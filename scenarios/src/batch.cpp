@@ -2,6 +2,7 @@
 
 #include <nonholo/batch.hpp>
 
+#include <algorithm>
 #include <charconv>
 #include <chrono>
 #include <cerrno>
@@ -137,6 +138,27 @@ class Journal {
   bool header_ = false, has_work_ = false, error_estimate_;
 };
 
+// The rows' final states into count x n arrays, NaN where a trajectory has none (its set-up
+// failed) or one of another size.
+void gather_states(const std::vector<Row>& rows, BatchResult::States& out) {
+  for (const Row& r : rows)
+    if (!r.coordinates.empty()) {
+      out.coordinates = r.coordinates;
+      out.velocities = r.velocities;
+      break;
+    }
+  const std::size_t nq = out.coordinates.size(), nv = out.velocities.size();
+  out.q.assign(rows.size() * nq, std::numeric_limits<double>::quiet_NaN());
+  out.p.assign(rows.size() * nv, std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const Row& r = rows[i];
+    if (static_cast<std::size_t>(r.final_q.size()) == nq && static_cast<std::size_t>(r.final_p.size()) == nv) {
+      std::copy(r.final_q.data(), r.final_q.data() + nq, out.q.begin() + static_cast<std::ptrdiff_t>(i * nq));
+      std::copy(r.final_p.data(), r.final_p.data() + nv, out.p.begin() + static_cast<std::ptrdiff_t>(i * nv));
+    }
+  }
+}
+
 }  // namespace
 
 std::string BatchResult::line() const {
@@ -149,6 +171,13 @@ std::string BatchResult::line() const {
 BatchResult run_batch(const BatchConfig& config) {
   // Only the writing process opens the output; every process journals its own rows.
   const std::string out_path = !config.processes || config.processes->writes() ? config.out : std::string();
+  const bool keep_states = config.keep_states || !config.states.empty();
+  if (!config.states.empty() && !is_hdf5_path(config.states))
+    throw std::invalid_argument("--states " + config.states + ": the states are written as HDF5: name the file .h5");
+  for (const auto& v : config.vary)
+    if (keep_states && v.compare(0, 7, "bodies=") == 0)
+      throw std::invalid_argument("--states with --vary bodies: the final states would differ in size; vary other "
+                                  "parameters, or run one batch per size");
   if (!config.out.empty() && !is_hdf5_path(config.out) &&
       !(config.out.size() > 4 && config.out.compare(config.out.size() - 4, 4, ".csv") == 0))
     throw std::invalid_argument("--out " + config.out + ": name the file .csv (text) or .h5 / .hdf5 (HDF5)");
@@ -196,7 +225,16 @@ BatchResult run_batch(const BatchConfig& config) {
   std::mutex names_mutex;
   long names_from = config.count;
   std::vector<std::string> names;
+  // --states: each row's whole final state, gathered into the result's arrays at the end.
+  std::vector<Row> states(keep_states ? static_cast<std::size_t>(config.count) : 0);
   const auto keep = [&](long i, Row& row) {
+    if (keep_states) {
+      Row& s = states[static_cast<std::size_t>(i)];
+      s.final_q = row.final_q;
+      s.final_p = std::move(row.final_p);
+      s.coordinates = std::move(row.coordinates);
+      s.velocities = std::move(row.velocities);
+    }
     if (!row.names.empty()) {
       const std::lock_guard<std::mutex> lock(names_mutex);
       if (i < names_from) {
@@ -227,8 +265,14 @@ BatchResult run_batch(const BatchConfig& config) {
       return;
     }
     // The first trajectory shows the phases of its set-up until the bar replaces them.
+    FinalState whole;
     row.summary = integrate_scene(prepared, p, run_config, nullptr, &row.final_q, i == 0 ? &progress : nullptr,
-                                  &row.names);
+                                  &row.names, keep_states ? &whole : nullptr);
+    if (keep_states) {
+      row.final_p = std::move(whole.p);
+      row.coordinates = std::move(whole.coordinates);
+      row.velocities = std::move(whole.velocities);
+    }
     progress.add(1);
   };
   std::vector<std::string> errors;
@@ -248,7 +292,7 @@ BatchResult run_batch(const BatchConfig& config) {
       Row row;
       row.error = capture_error([&] { integrate_row(i, row); });
       journal_row(i, row);
-      return pack_row(row);
+      return pack_row(row, keep_states);
     });
     if (!config.processes->writes()) {
       journal.remove();  // its rows reached the writing process
@@ -352,6 +396,7 @@ BatchResult run_batch(const BatchConfig& config) {
   result.shown.assign(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(shown));
   for (BatchResult::Trajectory& r : rows) r.final_q.resize(shown, std::numeric_limits<double>::quiet_NaN());
   result.rows = std::move(rows);
+  if (keep_states) gather_states(states, result.states);
 
   if (out.is_open()) {  // CSV, or HDF5 by the extension (hdf5_output.hpp)
     if (is_hdf5_path(out_path)) {
@@ -363,6 +408,12 @@ BatchResult run_batch(const BatchConfig& config) {
     } else {
       write_batch_csv(out, out_path, result, config.run.error_estimate);
     }
+  }
+  if (!config.states.empty() && (!config.processes || config.processes->writes())) {
+    BatchConfig used = config;
+    used.run.dt = prepared.dt;
+    used.run.t_end = prepared.t_end;
+    write_batch_states(config.states, used, prepared.info.name, result, prepared.steps);
   }
   journal.remove();
   agg.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

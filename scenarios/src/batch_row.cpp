@@ -85,14 +85,20 @@ void fields(Archive& a, Summary& s) {
 
 }  // namespace
 
-std::string pack_row(const Row& row) {
+std::string pack_row(const Row& row, bool whole_state) {
   Writer w;
   fields(w, row.summary);
   w(row.values);
-  const auto shown = std::min<Eigen::Index>(3, row.final_q.size());
+  const auto shown = whole_state ? row.final_q.size() : std::min<Eigen::Index>(3, row.final_q.size());
   w(std::vector<double>(row.final_q.data(), row.final_q.data() + shown));
   w(row.names);
   w(row.error);
+  w(whole_state);
+  if (whole_state) {
+    w(std::vector<double>(row.final_p.data(), row.final_p.data() + row.final_p.size()));
+    w(row.coordinates);
+    w(row.velocities);
+  }
   return std::move(w.bytes);
 }
 
@@ -120,6 +126,15 @@ Row unpack_row(const std::string& bytes) {
   row.final_q = Eigen::Map<const Vector>(q.data(), static_cast<Eigen::Index>(q.size()));
   r(row.names);
   r(row.error);
+  bool whole_state = false;
+  r(whole_state);
+  if (whole_state) {
+    std::vector<double> p;
+    r(p);
+    row.final_p = Eigen::Map<const Vector>(p.data(), static_cast<Eigen::Index>(p.size()));
+    r(row.coordinates);
+    r(row.velocities);
+  }
   if (!r.done()) throw std::logic_error("batch row: trailing bytes");
   return row;
 }

@@ -40,6 +40,10 @@ std::string read_checkpoint(const std::string& path, CheckpointInfo*) {
                               "Debian, and rebuild)");
 }
 
+void write_batch_states(const std::string& path, const BatchConfig&, const std::string&, const BatchResult&, long) {
+  missing(path);
+}
+
 void write_batch_hdf5(const std::string& path, const BatchConfig&, const std::string&, const BatchResult&, long) {
   missing(path);
 }

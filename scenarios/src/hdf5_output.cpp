@@ -383,4 +383,44 @@ void write_batch_hdf5(const std::string& path, const BatchConfig& config, const 
   if (!file.reset()) fail(path, "close the file");
 }
 
+// A 2-D dataset of rows x columns doubles, written at once.
+namespace {
+void write_matrix(hid_t file, const std::string& path, const char* name, const std::vector<double>& values,
+                  hsize_t rows, hsize_t columns) {
+  const hsize_t dims[2] = {rows, columns};
+  Handle space = check(H5Screate_simple(2, dims, nullptr), H5Sclose, path, std::string("make the space of ") + name);
+  Handle d = check(H5Dcreate2(file, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                   H5Dclose, path, std::string("create ") + name);
+  if (rows * columns > 0)
+    check(H5Dwrite(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), path,
+          std::string("write ") + name);
+}
+}  // namespace
+
+void write_batch_states(const std::string& path, const BatchConfig& config, const std::string& scene,
+                        const BatchResult& result, long steps) {
+  const Quiet quiet;
+  Handle file = create_file(path);
+  const hid_t f = file.get();
+  attribute(f, path, "format", std::string("nonholo batch states"));
+  describe_run(f, path, config.run, scene, nullptr, steps);
+  attribute(f, path, "count", config.count);
+  attribute(f, path, "seed", static_cast<long>(config.seed));
+  const auto& s = result.states;
+  const hsize_t count = result.rows.size();
+  write_matrix(f, path, "q", s.q, count, s.coordinates.size());
+  write_matrix(f, path, "p", s.p, count, s.velocities.size());
+  std::vector<std::int64_t> index(count);
+  std::vector<std::string> status(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    index[i] = static_cast<std::int64_t>(i);
+    status[i] = to_string(result.rows[i].summary.status);
+  }
+  write_column(f, path, "trajectory", index);
+  write_column(f, path, "status", status);
+  write_column(f, path, "coordinates", s.coordinates);
+  write_column(f, path, "velocities", s.velocities);
+  if (!file.reset()) fail(path, "close the file");
+}
+
 }  // namespace nonholo::scenarios

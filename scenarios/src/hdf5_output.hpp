@@ -53,5 +53,10 @@ class Hdf5RunWriter final : public FrameSink {
 // The batch's table (BatchResult::rows) as datasets; throws like the writer above.
 void write_batch_hdf5(const std::string& path, const BatchConfig& config, const std::string& scene,
                       const BatchResult& result, long steps);
+// The batch's final states (`--states FILE.h5`): /q (count x coordinates) and /p (count x
+// velocities), /trajectory, /status, the names in /coordinates and /velocities, the run's
+// attributes (format "nonholo batch states").
+void write_batch_states(const std::string& path, const BatchConfig& config, const std::string& scene,
+                        const BatchResult& result, long steps);
 
 }  // namespace nonholo::scenarios

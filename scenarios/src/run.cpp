@@ -472,7 +472,7 @@ PreparedRun prepare_run(const RunConfig& config) {
 
 RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
                            Progress* progress, Vector* final_q, Progress* setup_status,
-                           std::vector<std::string>* leading_names) {
+                           std::vector<std::string>* leading_names, FinalState* final_state) {
   const SceneInfo& info = run.info;
   const MethodChoice& choice = run.choice;
   const double dt = run.dt;
@@ -844,6 +844,11 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
   if (final_q) *final_q = runner->q();
+  if (final_state) {
+    final_state->p = runner->p();
+    final_state->coordinates = model.coordinate_names();
+    final_state->velocities = model.velocity_names();
+  }
   if (h5) h5->finish(summary);  // the summary's attributes, then the file is closed
   return summary;
 }

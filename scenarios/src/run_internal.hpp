@@ -33,8 +33,13 @@ PreparedRun prepare_run(const RunConfig& config);
 // `progress` (may be null) gets the steps done and is restarted when they begin; `setup_status` (may
 // be null, may be the same) shows the phases of the set-up (Progress::status); `leading_names`
 // (if given) receives the first three coordinate names of the model (fewer if it has fewer).
+// The whole final state and its names (`nonholo batch --states`).
+struct FinalState {
+  Vector p;
+  std::vector<std::string> coordinates, velocities;
+};
 RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
                            Progress* progress, Vector* final_q, Progress* setup_status = nullptr,
-                           std::vector<std::string>* leading_names = nullptr);
+                           std::vector<std::string>* leading_names = nullptr, FinalState* final_state = nullptr);
 
 }  // namespace nonholo::scenarios

@@ -102,3 +102,41 @@ def test_a_killed_batch_keeps_every_finished_row(tmp_path):
         assert line == rows[line.split(",", 1)[0]]
     back = nonholo.load(journal)
     assert len(back.columns["trajectory"]) == len(kept) - 1
+
+
+def test_a_batch_keeps_every_trajectorys_whole_final_state(tmp_path):
+    # states=: (count, n) arrays of the final q and p, the same for 1 and 2 threads, bit for bit,
+    # each row the state a single run of that trajectory ends in; the --states file holds them.
+    kw = dict(count=6, vary={"omega0": (0.5, 1.5)}, set={"bodies": 8}, t_end=1.0, order=4, dt=0.05)
+    one = nonholo.batch("sleigh_chain", threads=1, states=True, **kw)
+    two = nonholo.batch("sleigh_chain", threads=2, states=tmp_path / "states.h5", **kw)
+    assert one.q.shape == (6, 24) and one.p.shape == (6, 24) and one.coordinates[:3] == ["x0", "y0", "theta0"]
+    assert same(one.q, two.q) and same(one.p, two.p)
+    for i in (0, 5):
+        alone = nonholo.run("sleigh_chain", set={"bodies": 8, "omega0": float(one.columns["omega0"][i])},
+                            t_end=1.0, order=4, dt=0.05)
+        assert same(alone.q[-1], one.q[i]) and same(alone.p[-1], one.p[i])
+    back = nonholo.load(tmp_path / "states.h5")
+    assert same(back.q, one.q) and same(back.p, one.p) and list(back.columns["status"]) == ["ok"] * 6
+    with pytest.raises(ValueError, match="--states with --vary bodies"):
+        nonholo.batch("sleigh_chain", count=2, vary={"bodies": (5, 9)}, states=True)
+    assert nonholo.batch("sleigh", count=2, t_end=0.1).q is None
+
+
+def test_the_final_states_are_the_same_over_mpi_ranks(tmp_path):
+    # mpirun -n 3 nonholo batch --states: the same /q and /p as one process, bit for bit.
+    import os
+    import shutil
+    import subprocess
+    from support import CLI
+    mpirun = shutil.which("mpirun")
+    if mpirun is None:
+        pytest.skip("no mpirun (Debian: openmpi-bin)")
+    args = ["batch", "sleigh_chain", "--count", "7", "--set", "bodies=6", "--vary", "omega0=0.5:1.5", "--t-end", "1"]
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    done = subprocess.run([mpirun, "-n", "3", "--oversubscribe", CLI, *args, "--threads", "1",
+                           "--states", str(tmp_path / "ranks.h5")], env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    one = nonholo.batch("sleigh_chain", count=7, set={"bodies": 6}, vary={"omega0": (0.5, 1.5)}, t_end=1.0, states=True)
+    spread = nonholo.load(tmp_path / "ranks.h5")
+    assert same(spread.q, one.q) and same(spread.p, one.p)

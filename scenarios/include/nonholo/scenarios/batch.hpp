@@ -44,6 +44,10 @@ struct BatchConfig {
   std::vector<std::string> vary;  // NAME=LO:HI
   std::uint64_t seed = 1;
   std::string out;  // the per-trajectory CSV (empty: none)
+  // Every trajectory's whole final state (q and the momentum p the method carries) kept in
+  // BatchResult::states and, when `states` names a file, written there (HDF5: /q, /p, count rows).
+  std::string states;
+  bool keep_states = false;
   BatchProcesses* processes = nullptr;  // MPI ranks (not owned); null: this process alone
   // The batch's options as parsed, one `name=value` a line (--threads left out: each process may
   // have its own cores); the processes check that they all run the same.
@@ -70,6 +74,12 @@ struct BatchResult {
   };
   std::vector<std::string> varied, shown;
   std::vector<Trajectory> rows;
+  // BatchConfig::keep_states or states: the final q (count x coordinates.size(), row-major) and
+  // p (count x velocities.size()); NaN rows for trajectories that were not set up.
+  struct States {
+    std::vector<std::string> coordinates, velocities;
+    std::vector<double> q, p;
+  } states;
 };
 
 // The bytes a batch keeps per trajectory until it ends, from the real sizes: its table row
