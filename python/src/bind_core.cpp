@@ -560,6 +560,40 @@ setting q or p resets target_energy.)")
       .def("copy", [](const State& s) { return s; })
       .def("__copy__", [](const State& s) { return s; })
       .def("__deepcopy__", [](const State& s, const py::object&) { return s; })
+      // Pickled whole (every field, the time grid and the restart schedule too), bit for bit: a
+      // state saved and loaded steps on exactly as the original would.
+      .def(py::pickle(
+          [](const State& s) {
+            const auto array = [](const Vector& v) { return py::array_t<double>(v.size(), v.data()); };
+            return py::make_tuple(1, s.t, s.grid.t0, s.grid.h, s.grid.k, array(s.q), array(s.p), array(s.lambda),
+                                  array(s.force), s.steps, s.restarts, s.watch.next_step, s.watch.last_step,
+                                  s.watch.last_amplitude, s.watch.floor, s.target_energy);
+          },
+          [](const py::tuple& t) {
+            if (t.size() != 16 || t[0].cast<int>() != 1)
+              throw std::invalid_argument("State: not a pickled nonholo.State of this version");
+            const auto vector = [](const py::handle& h) {
+              const auto a = h.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+              return Vector(Eigen::Map<const Vector>(a.data(), a.size()));
+            };
+            State s;
+            s.t = t[1].cast<double>();
+            s.grid.t0 = t[2].cast<double>();
+            s.grid.h = t[3].cast<double>();
+            s.grid.k = t[4].cast<long>();
+            s.q = vector(t[5]);
+            s.p = vector(t[6]);
+            s.lambda = vector(t[7]);
+            s.force = vector(t[8]);
+            s.steps = t[9].cast<long>();
+            s.restarts = t[10].cast<long>();
+            s.watch.next_step = t[11].cast<long>();
+            s.watch.last_step = t[12].cast<long>();
+            s.watch.last_amplitude = t[13].cast<double>();
+            s.watch.floor = t[14].cast<double>();
+            s.target_energy = t[15].cast<double>();
+            return s;
+          }))
       .def("__repr__", [](const State& s) {
         std::ostringstream os;
         os << "<nonholo.State t=" << num(s.t) << ", steps=" << s.steps << ", " << s.q.size() << " coordinates>";

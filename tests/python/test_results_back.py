@@ -140,3 +140,12 @@ def test_the_final_states_are_the_same_over_mpi_ranks(tmp_path):
     one = nonholo.batch("sleigh_chain", count=7, set={"bodies": 6}, vary={"omega0": (0.5, 1.5)}, t_end=1.0, states=True)
     spread = nonholo.load(tmp_path / "ranks.h5")
     assert same(spread.q, one.q) and same(spread.p, one.p)
+
+
+def test_a_checkpoint_of_another_version_is_refused(tmp_path):
+    nonholo.run("sleigh", t_end=0.1, checkpoint=tmp_path / "ck.h5")
+    with h5py.File(tmp_path / "ck.h5", "r+") as f:
+        assert f.attrs["format"] == "nonholo checkpoint"
+        f.attrs["nonholo_version"] = "0.0.1"
+    with pytest.raises(ValueError, match="written by nonholo 0.0.1, this is nonholo .*: resume it with the version"):
+        nonholo.run(resume=tmp_path / "ck.h5")
