@@ -226,3 +226,24 @@ def test_an_xdmf_sidecar_shows_the_bodies_in_paraview(tmp_path):
     assert cli("run", "suslov", "--t-end", "0.1", "--out", str(tmp_path / "top.h5")).returncode == 0
     assert not (tmp_path / "top.xdmf").exists()
 
+
+
+def test_a_checkpoint_is_never_torn(tmp_path):
+    # kill -9 at five moments of a run that checkpoints every 5 steps (about 20 times a second):
+    # the checkpoint file is always whole (written aside, flushed, renamed), and resumes.
+    args = ["run", "sleigh_chain", "--set", "bodies=2000", "--t-end", "1e6"]
+    for i, delay in enumerate([0.5, 0.9, 1.3, 1.8, 2.4]):
+        checkpoint = tmp_path / ("ck%d.h5" % i)
+        child = subprocess.Popen([CLI, *args, "--checkpoint", str(checkpoint), "--checkpoint-every", "5"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        child.send_signal(signal.SIGKILL)
+        child.wait()
+        if not checkpoint.exists():
+            continue  # killed before the first one
+        with h5py.File(checkpoint, "r") as f:
+            t, step = float(f.attrs["t"]), int(f.attrs["step"])
+        assert step % 5 == 0
+        done = cli("run", "--resume", str(checkpoint), "--t-end", repr(t + 0.05))
+        assert done.returncode == 0, done.stderr
+        assert summary_of(done.stdout)["steps"] == str(step + 5)
