@@ -3,6 +3,8 @@
 #include "checkpoint/checkpoint_file.hpp"
 #include "hdf5_output.hpp"
 
+#include <nonholo/scenarios/results.hpp>
+
 #include <stdexcept>
 
 namespace nonholo::scenarios {
@@ -42,6 +44,10 @@ std::string read_checkpoint(const std::string& path, CheckpointInfo*) {
 
 void write_batch_states(const std::string& path, const BatchConfig&, const std::string&, const BatchResult&, long) {
   missing(path);
+}
+
+RunData load_run_hdf5(const std::string& path) {
+  throw std::invalid_argument("'" + path + "': this nonholo was built without HDF5 (install libhdf5-dev, Debian, and rebuild)");
 }
 
 void write_batch_hdf5(const std::string& path, const BatchConfig&, const std::string&, const BatchResult&, long) {
