@@ -5,6 +5,7 @@
 #include <nonholo/scenarios/exact_solutions.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
+#include <nonholo/version.hpp>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -214,6 +215,16 @@ TEST(CommandLine, OutDashWritesTheCsvToStandardOutput) {
   EXPECT_EQ(dash.out, "");
   EXPECT_THAT(dash.err, StartsWith("scene=sleigh "));
   std::remove(path.c_str());
+}
+
+// One version everywhere: CMakeLists.txt's project(VERSION) in <nonholo/version.hpp>, printed by
+// --version with the checkout's revision.
+TEST(CommandLine, VersionSaysWhichNonholo) {
+  const Result r = run({"--version"});
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.out, std::string("nonholo ") + kVersion + " (git " + kGitRevision + ")\n");
+  EXPECT_EQ(std::string(kVersion), std::to_string(kVersionMajor) + "." + std::to_string(kVersionMinor) + "." +
+                                       std::to_string(kVersionPatch));
 }
 
 TEST(CommandLine, SnakeboardCsvHeader) {

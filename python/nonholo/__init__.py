@@ -15,6 +15,8 @@ import numpy as _np
 from . import _core
 from ._core import *  # noqa: F401,F403  (the library's API)
 
+__version__ = _core.__version__  # CMakeLists.txt's project(VERSION); _core.__git_revision__ too
+
 __all__ = [name for name in dir(_core) if not name.startswith("_")] + [
     "run", "batch", "scenes", "load", "RunResult", "BatchResult", "RunError"]
 

@@ -4,6 +4,8 @@
 #include <nonholo/scenarios/run.hpp>
 #include <nonholo/scenarios/work_precision.hpp>
 
+#include <nonholo/version.hpp>
+
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
@@ -275,6 +277,7 @@ void list_scenes(std::ostream& out) {
 int run_command_line(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
                      BatchProcesses* processes) {
   CLI::App app{"nonholo: momentum- and energy-preserving integration of nonholonomic systems"};
+  app.set_version_flag("--version", std::string("nonholo ") + kVersion + " (git " + kGitRevision + ")");
   app.require_subcommand(1);
 
   RunOptions run;

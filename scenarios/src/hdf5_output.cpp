@@ -6,6 +6,7 @@
 #include "output/xdmf.hpp"
 
 #include <hdf5.h>
+#include <nonholo/version.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -27,8 +28,8 @@ constexpr const char* kUnits =
 // dt and t_end the run used (not the 0 and -1 that mean "the scene's"); steps: of dt each.
 void describe_run(hid_t file, const std::string& path, const RunConfig& c, const std::string& scene,
                   const Parameters* params, long steps) {
-  attribute(file, path, "nonholo_version", std::string(NONHOLO_VERSION));
-  attribute(file, path, "git_revision", std::string(NONHOLO_GIT_REVISION));  // at configure time
+  attribute(file, path, "nonholo_version", std::string(kVersion));
+  attribute(file, path, "git_revision", std::string(kGitRevision));  // at configure time
   attribute(file, path, "units", std::string(kUnits));
   attribute(file, path, "command", c.command_line);
   attribute(file, path, "scene", scene);

@@ -158,3 +158,17 @@ def test_ctrl_c_raises_keyboard_interrupt_with_the_frames_so_far():
     assert "interrupted by the caller" in r.summary["message"]
     assert 0 < r.summary["steps"] < 10**6
     assert r.t.shape[0] == r.q.shape[0] >= 1
+
+
+def test_one_version_everywhere(tmp_path):
+    # nonholo.__version__ is the library's, the tool's (--version) and the output files'.
+    import re
+    import h5py
+    assert re.fullmatch(r"\d+\.\d+\.\d+", nonholo.__version__)
+    done = cli("--version")
+    assert done.returncode == 0 and done.stdout.startswith("nonholo %s (git " % nonholo.__version__)
+    nonholo.run("sleigh", t_end=0.1, out=tmp_path / "v.h5")
+    with h5py.File(tmp_path / "v.h5", "r") as f:
+        version = f.attrs["nonholo_version"]
+        assert (version.decode() if isinstance(version, bytes) else version) == nonholo.__version__
+

@@ -3,6 +3,8 @@
 
 #include "../hdf5_util.hpp"
 
+#include <nonholo/version.hpp>
+
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -72,8 +74,8 @@ void write_checkpoint(const std::string& path, const CheckpointInfo& info, const
     const hid_t f = file.get();
     attribute(f, temporary, "format", std::string("nonholo checkpoint"));
     attribute(f, temporary, "format_version", kCheckpointFormat);
-    attribute(f, temporary, "nonholo_version", std::string(NONHOLO_VERSION));
-    attribute(f, temporary, "git_revision", std::string(NONHOLO_GIT_REVISION));
+    attribute(f, temporary, "nonholo_version", std::string(kVersion));
+    attribute(f, temporary, "git_revision", std::string(kGitRevision));
     attribute(f, temporary, "scene", info.scene);
     attribute(f, temporary, "method", info.method);
     attribute(f, temporary, "t", info.t);
@@ -105,8 +107,8 @@ std::string read_checkpoint(const std::string& path, CheckpointInfo* info) {
     not_a_checkpoint(path, "checkpoint format " + std::to_string(version) + ", this nonholo reads format " +
                                std::to_string(kCheckpointFormat) + " (resume it with the nonholo that wrote it)");
   const std::string written_by = read_text(f, path, "nonholo_version");
-  if (written_by != NONHOLO_VERSION)
-    not_a_checkpoint(path, "written by nonholo " + written_by + ", this is nonholo " + NONHOLO_VERSION +
+  if (written_by != kVersion)
+    not_a_checkpoint(path, "written by nonholo " + written_by + ", this is nonholo " + kVersion +
                                ": resume it with the version that wrote it (a run continued by another version would "
                                "not be the same trajectory)");
   if (info) {
