@@ -26,6 +26,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <sstream>
@@ -641,6 +642,9 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
     RunConfig effective = config;
     effective.horizon = choice.adaptive.horizon;
     effective.resume_path.clear();
+    // Absolute paths: a resume from another directory still finds the output and the scene file.
+    if (!effective.csv_path.empty()) effective.csv_path = std::filesystem::absolute(effective.csv_path).string();
+    if (is_scene_file(effective.scene)) effective.scene = std::filesystem::absolute(effective.scene).string();
     save(out, effective);
     loop.save(out);
     runner->save(out);
