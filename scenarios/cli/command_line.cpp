@@ -40,7 +40,8 @@ struct RunOptions {
 void add_run_options(CLI::App* cmd, RunOptions& o) {
   cmd->add_option("scene", o.config.scene,
                   "scene name (particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train, suslov, "
-                  "veselova, chaplygin_ball, ball_chain, rolling_disk) or a scene file FILE.json");
+                  "veselova, chaplygin_ball, ball_chain, rolling_disk; `nonholo list` shows their parameters) or a "
+                  "scene file FILE.json (README \"Scene files\")");
   cmd->add_option("--dt", o.config.dt, "time step (default: the scene's)");
   cmd->add_option("--t-end", o.config.t_end, "final time (default: the scene's)");
   cmd->add_option("--set", o.config.assignments, "set a scene parameter, NAME=VALUE (repeatable)")
