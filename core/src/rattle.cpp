@@ -127,27 +127,20 @@ Status gap_failure(const Model& model, Workspace& ws, const State& s, const Ratt
 // q_next by (h^2/2) M^-1 mu_k^T dlambda: mu_k of that move is -g on the hitch rows (Newton
 // with the Jacobian frozen at q_k, converging at a rate O(h |thetadot|)) and 0 on the other
 // rows, so mu_k (q_{k+1} - q_{k-1}) = 0 still holds for them.
-// C(q_k) factorised in the workspace, and on a hitched chain the sines and cosines of q_k: what
-// a fused step arriving at q_k leaves behind (then nothing is done).
-Status factor_at_state(const Model& model, Workspace& ws, const State& s, const RattleOptions& o) {
-  const bool chain = ws.fused() && model.element_set()->hitched_chain;
-  if (chain && ws.chain_factor_holds(s.q)) return Status::Ok;
-  const Status status = ws.factorize_at(s.q, o.min_pivot_ratio);
-  if (status == Status::Ok && chain) {
-    detail::chain_sincos_of(model, s.q, ws.chain_sincos);
-    ws.sincos_computed_for_key();
-  }
-  return status;
-}
-
 Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const RattleOptions& o, double h) {
   // A chain of knife edges and hitches: two passes over the bodies per correction
   // (chain_passes.cpp), forward (gaps and forward substitution) and backward (back
   // substitution, correction, the next gaps); the last leaves sin/cos of q_{k+1} for the sweep.
   // Its corrections take mu(q_k)'s rows from sin/cos of q_k, moved to chain_sincos_prev.
   const bool chain = ws.fused() && model.element_set()->hitched_chain;
-  Status status = factor_at_state(model, ws, s, o);
-  if (status != Status::Ok) return status;
+  Status status = Status::Ok;
+  if (!chain || !ws.chain_factor_holds(s.q)) {  // a fused step to q_k left both C(q_k) and them
+    if ((status = ws.factorize_at(s.q, o.min_pivot_ratio)) != Status::Ok) return status;
+    if (chain) {
+      detail::chain_sincos_of(model, s.q, ws.chain_sincos);
+      ws.sincos_computed_for_key();
+    }
+  }
   if (chain) {
     ws.chain_sincos.swap(ws.chain_sincos_prev);  // pointers only
     ws.forget_sincos();

@@ -2,6 +2,7 @@
 // One trajectory's row of `nonholo batch`, and the row as bytes: what a rank sends the
 // writing rank under MPI (BatchProcesses), so that its table is the one a single process
 // would have made, bit for bit.
+#include <nonholo/archive.hpp>
 #include <nonholo/scenarios/run.hpp>
 #include <nonholo/types.hpp>
 
@@ -26,7 +27,7 @@ std::string pack_row(const Row& row, bool whole_state = false);
 Row unpack_row(const std::string& bytes);
 
 // The summary alone, every field (checkpoints).
-std::string pack_summary(const RunSummary& summary);
-RunSummary unpack_summary(const std::string& bytes);
+void save(OutArchive& a, const RunSummary& summary);
+void load(InArchive& a, RunSummary& summary);
 
 }  // namespace nonholo::scenarios

@@ -327,17 +327,27 @@ void Hdf5RunWriter::finish(const RunSummary& summary) {
   if (!w.file.reset()) fail(w.path, "close the file");
 }
 
-void write_batch_hdf5(const std::string& path, const BatchConfig& config, const std::string& scene,
-                      const BatchResult& result, long steps) {
-  const Quiet quiet;
+namespace {
+// A batch's file, its root attributes written: the format, the run's options, the batch's own.
+Handle create_batch_file(const std::string& path, const char* format, const BatchConfig& config,
+                         const std::string& scene, long steps) {
   Handle file = create_file(path);
   const hid_t f = file.get();
-  attribute(f, path, "format", std::string("nonholo batch"));
+  attribute(f, path, "format", std::string(format));
   describe_run(f, path, config.run, scene, nullptr, steps);
   attribute(f, path, "count", config.count);
   attribute(f, path, "seed", static_cast<long>(config.seed));
   for (const auto& v : config.vary) attribute(f, path, "vary " + v.substr(0, v.find('=')), v);
   for (const auto& a : config.run.assignments) attribute(f, path, "set " + a.substr(0, a.find('=')), a);
+  return file;
+}
+}  // namespace
+
+void write_batch_hdf5(const std::string& path, const BatchConfig& config, const std::string& scene,
+                      const BatchResult& result, long steps) {
+  const Quiet quiet;
+  Handle file = create_batch_file(path, "nonholo batch", config, scene, steps);
+  const hid_t f = file.get();
 
   // The CSV's columns, in its order and with its names.
   const auto& rows = result.rows;
@@ -401,12 +411,8 @@ void write_matrix(hid_t file, const std::string& path, const char* name, const s
 void write_batch_states(const std::string& path, const BatchConfig& config, const std::string& scene,
                         const BatchResult& result, long steps) {
   const Quiet quiet;
-  Handle file = create_file(path);
+  Handle file = create_batch_file(path, "nonholo batch states", config, scene, steps);
   const hid_t f = file.get();
-  attribute(f, path, "format", std::string("nonholo batch states"));
-  describe_run(f, path, config.run, scene, nullptr, steps);
-  attribute(f, path, "count", config.count);
-  attribute(f, path, "seed", static_cast<long>(config.seed));
   const auto& s = result.states;
   const hsize_t count = result.rows.size();
   write_matrix(f, path, "q", s.q, count, s.coordinates.size());

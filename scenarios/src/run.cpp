@@ -93,7 +93,8 @@ struct LoopState {
 
   void save(OutArchive& a) const {
     a.tag("loop");
-    a(k), a(t0), a(pack_summary(summary));
+    a(k), a(t0);
+    scenarios::save(a, summary);
     a(d0.energy), a(d0.energy_post), a(d0.residual), a(d0.gap), a(power0), a(power);
     work.save(a);
     a(rest.energy), a(rest.speed), a(j0), a(lever_arm), a(difference), a(companion_failure), a(output_position);
@@ -101,9 +102,8 @@ struct LoopState {
   }
   void load(InArchive& a) {
     a.tag("loop");
-    std::string packed;
-    a(k), a(t0), a(packed);
-    summary = unpack_summary(packed);
+    a(k), a(t0);
+    scenarios::load(a, summary);
     a(d0.energy), a(d0.energy_post), a(d0.residual), a(d0.gap), a(power0), a(power);
     work.load(a);
     a(rest.energy), a(rest.speed);

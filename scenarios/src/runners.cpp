@@ -390,11 +390,6 @@ class ReferenceRunner final : public Runner {
 
 }  // namespace
 
-void Runner::save(OutArchive&) const {
-  throw std::runtime_error("checkpoint: this method's state cannot be saved");
-}
-void Runner::load(InArchive&) { throw std::runtime_error("checkpoint: this method's state cannot be loaded"); }
-
 Companion companion_of(const MethodChoice& c) {
   Companion out;
   out.choice = c;

@@ -62,8 +62,8 @@ class Runner {
   // Checkpoints: everything the next steps and the summary read (state, watches, counters), at
   // a step boundary. Throws std::runtime_error for a method whose state cannot be saved (ARKODE)
   // or bytes of another run.
-  virtual void save(OutArchive& a) const;
-  virtual void load(InArchive& a);
+  virtual void save(OutArchive& a) const = 0;
+  virtual void load(InArchive& a) = 0;
 };
 
 struct MethodChoice {

@@ -1,13 +1,15 @@
 #pragma once
-// Bytes for checkpoints: the exact values of a state (every double bit for bit), written in one
-// order and read back in the same. Not a file format by itself: a checkpoint file wraps the bytes
-// with what they belong to (the library's format version, the scene, the options) and checks
-// that before reading (scenarios/checkpoint). Native byte order; a checkpoint is for the machine
-// kind that wrote it.
+// Bytes for checkpoints (and a batch's rows between MPI ranks): the exact values of a state
+// (every double bit for bit), written in one order and read back in the same. Not a file format
+// by itself: a checkpoint file wraps the bytes with what they belong to (the library's format
+// version, the scene, the options) and checks that before reading (scenarios/checkpoint).
+// Native byte order; a checkpoint is for the machine kind that wrote it.
 #include <nonholo/state.hpp>
 
 #include <cstdint>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 namespace nonholo {
 
@@ -19,6 +21,12 @@ class OutArchive {
   void operator()(bool x) { (*this)(static_cast<int>(x)); }
   void operator()(const std::string& s);
   void operator()(ConstVecRef v);
+  void operator()(const std::vector<double>& v);
+  void operator()(const std::vector<std::string>& v);
+  template <class E, std::enable_if_t<std::is_enum_v<E>, int> = 0>
+  void operator()(E x) {
+    (*this)(static_cast<long>(x));
+  }
   // A label, read back and compared: a reader out of step fails at the first label it meets.
   void tag(const char* label) { (*this)(std::string(label)); }
 
@@ -32,15 +40,23 @@ class OutArchive {
 };
 
 // Throws std::runtime_error naming what was being read when the bytes end early, a size
-// differs from the one expected, or a label does not match.
+// differs from the one expected, or a label does not match; the message starts with `context`.
 class InArchive {
  public:
-  explicit InArchive(const std::string& bytes) : bytes_(bytes) {}
+  explicit InArchive(const std::string& bytes, const char* context = "checkpoint") : bytes_(bytes), context_(context) {}
   void operator()(double& x) { raw(&x, sizeof x, "a number"); }
   void operator()(long& x) { raw(&x, sizeof x, "an integer"); }
   void operator()(int& x) { raw(&x, sizeof x, "an integer"); }
   void operator()(bool& x);
   void operator()(std::string& s);
+  void operator()(std::vector<double>& v);  // resized to the stored size
+  void operator()(std::vector<std::string>& v);
+  template <class E, std::enable_if_t<std::is_enum_v<E>, int> = 0>
+  void operator()(E& x) {
+    long stored = 0;
+    (*this)(stored);
+    x = static_cast<E>(stored);
+  }
   // Into a vector of the size it already has (sized by the model): a different size is refused.
   void operator()(VecRef v);
   // Into a vector of any size (resized to the stored one).
@@ -50,7 +66,10 @@ class InArchive {
 
  private:
   void raw(void* p, std::size_t n, const char* what);
+  long count(const char* what, std::size_t each);  // a stored size that fits in what is left
+  [[noreturn]] void fail(const std::string& why) const;
   const std::string& bytes_;
+  const char* context_;
   std::size_t at_ = 0;
 };
 

@@ -17,12 +17,31 @@ void OutArchive::operator()(ConstVecRef v) {
   raw(v.data(), sizeof(double) * static_cast<std::size_t>(v.size()));
 }
 
+void OutArchive::operator()(const std::vector<double>& v) {
+  (*this)(Eigen::Map<const Vector>(v.data(), static_cast<Eigen::Index>(v.size())));
+}
+
+void OutArchive::operator()(const std::vector<std::string>& v) {
+  (*this)(static_cast<long>(v.size()));
+  for (const std::string& s : v) (*this)(s);
+}
+
+void InArchive::fail(const std::string& why) const { throw std::runtime_error(std::string(context_) + ": " + why); }
+
 void InArchive::raw(void* p, std::size_t n, const char* what) {
   if (bytes_.size() - at_ < n)
-    throw std::runtime_error(std::string("checkpoint: the bytes end early (reading ") + what + " at byte " +
-                             std::to_string(at_) + " of " + std::to_string(bytes_.size()) + ")");
+    fail(std::string("the bytes end early (reading ") + what + " at byte " + std::to_string(at_) + " of " +
+         std::to_string(bytes_.size()) + ")");
   if (n > 0) std::memcpy(p, bytes_.data() + at_, n);  // (an empty vector's data() may be null)
   at_ += n;
+}
+
+long InArchive::count(const char* what, std::size_t each) {
+  long n = 0;
+  (*this)(n);
+  if (n < 0 || static_cast<std::size_t>(n) > (bytes_.size() - at_) / each)
+    fail(std::string("a ") + what + " of " + std::to_string(n) + " entries does not fit in what is left");
+  return n;
 }
 
 void InArchive::operator()(bool& x) {
@@ -32,10 +51,7 @@ void InArchive::operator()(bool& x) {
 }
 
 void InArchive::operator()(std::string& s) {
-  long n = 0;
-  (*this)(n);
-  if (n < 0 || static_cast<std::size_t>(n) > bytes_.size() - at_)
-    throw std::runtime_error("checkpoint: a text of " + std::to_string(n) + " bytes does not fit in what is left");
+  const long n = count("text", 1);
   s.assign(bytes_.data() + at_, static_cast<std::size_t>(n));
   at_ += static_cast<std::size_t>(n);
 }
@@ -44,25 +60,29 @@ void InArchive::operator()(VecRef v) {
   long n = 0;
   (*this)(n);
   if (n != v.size())
-    throw std::runtime_error("checkpoint: a vector of " + std::to_string(n) + " entries where the model has " +
-                             std::to_string(v.size()));
+    fail("a vector of " + std::to_string(n) + " entries where the model has " + std::to_string(v.size()));
   raw(v.data(), sizeof(double) * static_cast<std::size_t>(n), "a vector");
 }
 
 void InArchive::resize_into(Vector& v) {
-  long n = 0;
-  (*this)(n);
-  if (n < 0 || static_cast<std::size_t>(n) > (bytes_.size() - at_) / sizeof(double))
-    throw std::runtime_error("checkpoint: a vector of " + std::to_string(n) + " entries does not fit in what is left");
-  v.resize(n);
-  raw(v.data(), sizeof(double) * static_cast<std::size_t>(n), "a vector");
+  v.resize(count("vector", sizeof(double)));
+  raw(v.data(), sizeof(double) * static_cast<std::size_t>(v.size()), "a vector");
+}
+
+void InArchive::operator()(std::vector<double>& v) {
+  v.resize(static_cast<std::size_t>(count("vector", sizeof(double))));
+  raw(v.data(), sizeof(double) * v.size(), "a vector");
+}
+
+void InArchive::operator()(std::vector<std::string>& v) {
+  v.resize(static_cast<std::size_t>(count("list of texts", sizeof(long))));
+  for (std::string& s : v) (*this)(s);
 }
 
 void InArchive::tag(const char* label) {
   std::string found;
   (*this)(found);
-  if (found != label)
-    throw std::runtime_error(std::string("checkpoint: expected the part '") + label + "', found '" + found + "'");
+  if (found != label) fail(std::string("expected the part '") + label + "', found '" + found + "'");
 }
 
 namespace {
