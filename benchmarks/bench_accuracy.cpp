@@ -1,6 +1,6 @@
 // Cost of the in-run accuracy check (nonholo/accuracy.hpp): steps with and without the watch,
-// on the sleigh and on a 10^5-body chain, in one run (compare the pairs; README "Accuracy
-// check" has the ratios). The state runs on from iteration to iteration, so the watch samples
+// on the sleigh and on a 10^5-body chain, in one run (compare the pairs; docs/guide/methods.md
+// "Accuracy check" has the ratios). The state runs on from iteration to iteration, so the watch samples
 // as it does in a long run (dense at the start, then every 32 steps while samples agree).
 #include <nonholo/accuracy.hpp>
 #include <nonholo/rattle.hpp>

@@ -1,10 +1,10 @@
-// Scaling of the chain step (DESIGN.md section 7, issues 3 and 12): ns per body-step of
+// Scaling of the chain step (docs/design.md section 7, issues 3 and 12): ns per body-step of
 // sleigh_chain at N = 10^3 .. 10^6 in both hitch modes on the fused banded sweep (the default
 // for a chain of elements) and on the general path forced through CHOLMOD, and, on the same C
 // (assembled at the same state), CHOLMOD factor+solve alone, the banded LDL^T's factor+solve
 // alone and LAPACK dpbtrf+dpbtrs. Also the spring-coupled chain without hitches (C diagonal)
 // on the fused sweep, through the block-diagonal path and forced through CHOLMOD. tools/scaling.py runs this binary and turns the JSON into the
-// README's table, ratios and plot; every benchmark reports its N as the counter `bodies`.
+// docs/results/scaling.md's table, ratios and plot; every benchmark reports its N as the counter `bodies`.
 #include <nonholo/rattle.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/sparse/factorization.hpp>
@@ -34,7 +34,7 @@ using sparse::Backend;
 // A chain after some steps (generic angles), kept across the benchmark's repeated calls:
 // building a million-body model takes seconds. The fused chains take 40 steps first, past the
 // start's transient: at 10^6 bodies the automatic restarts learn the round-off floor of the
-// period-2 mode's measurement there (README "Restarts"), a cost a long run pays once. The
+// period-2 mode's measurement there (docs/guide/methods.md "Restarts"), a cost a long run pays once. The
 // chains forced through CHOLMOD (the "before", a second a step at 10^6) take 5.
 struct Chain {
   scenarios::SceneSetup setup;
@@ -91,7 +91,7 @@ void step_loop(benchmark::State& s, bool hitched, Backend backend, HitchMode mod
   report(s, n, c.ws.backend_name());
 }
 
-// The cost of controlling the period-2 mode (README "Long runs"), one-form chain: the paper's
+// The cost of controlling the period-2 mode (docs/guide/long-runs.md), one-form chain: the paper's
 // plain method without measuring the mode (the bare step), the plain method measuring it
 // (what --restart 0 does), the default (automatic restarts, measurement spaced by the
 // predicted growth, at most 8 steps apart) and the default measuring at every step.

@@ -1,4 +1,4 @@
-// 3-D rigid bodies (README "3-D bodies"): one step of each 3-D scene with the default options,
+// 3-D rigid bodies (docs/guide/rigid-bodies.md): one step of each 3-D scene with the default options,
 // and the drift of one body in the same run: a planar body's (q + h M^-1 p) against a rigid
 // body's, whose discrete Legendre transform is a 3x3 Newton iteration (Moser-Veselov, MV-F,
 // exponential) or a closed form (an isotropic body).

@@ -1,4 +1,4 @@
-// Cost of one step of the built-in scenes, against the floor of DESIGN.md section 7: a
+// Cost of one step of the built-in scenes, against the floor of docs/design.md section 7: a
 // hand-written scalar step of the sleigh (a sin/cos and a dozen flops). Compare the
 // sleigh's per-step time with ScalarSleighStep from the same run.
 #include <nonholo/diagnostics.hpp>

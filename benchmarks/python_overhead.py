@@ -59,7 +59,7 @@ def main():
 
 
 def python_particle():
-    """The paper's particle (DESIGN.md section 5) with Python callbacks, as the scene has it."""
+    """The paper's particle (docs/design.md section 5) with Python callbacks, as the scene has it."""
     b = nonholo.ModelBuilder()
     b.add_body(["x", "y", "z"], np.eye(3))
     b.add_one_form([0, 2])

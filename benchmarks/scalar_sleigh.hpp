@@ -1,5 +1,5 @@
 #pragma once
-// The floor of DESIGN.md section 7 for one small body: the same scheme for the sleigh
+// The floor of docs/design.md section 7 for one small body: the same scheme for the sleigh
 // (m = I = 1, a = 0.2, h = 0.01) written out with scalars. Shared by bench_step and bench_batch.
 #include <nonholo/state.hpp>
 

@@ -1,6 +1,7 @@
 # cmake -P script: install the current build to WORK_DIR/prefix, then configure, build and
 # run one consumer of each component against it: examples/embed (core, with SUNDIALS hidden,
-# plus README's "Using the library" program extracted from README.md), examples/embed_reference
+# plus the user guide's "Using the library" program extracted from docs/guide/library.md),
+# examples/embed_reference
 # and examples/embed_scenarios, and examples/embed_mpi WITH_MPI. CONSUMER_FLAGS: the build's
 # compiler flags (sanitizers).
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -13,16 +14,14 @@ function(run)
 endfunction()
 run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix)
 
-# README's program: the first ```cpp block after "## Using the library".
-file(READ ${SOURCE_DIR}/README.md readme)
-string(FIND "${readme}" "\n## Using the library\n" at)
-string(SUBSTRING "${readme}" ${at} -1 readme)
-if(at EQUAL -1 OR NOT readme MATCHES "```cpp\n(.*)")
-  message(FATAL_ERROR "README.md: no ```cpp block under \"## Using the library\"")
+# The guide's program: the first ```cpp block of docs/guide/library.md.
+file(READ ${SOURCE_DIR}/docs/guide/library.md guide)
+if(NOT guide MATCHES "```cpp\n(.*)")
+  message(FATAL_ERROR "docs/guide/library.md: no ```cpp block")
 endif()
 string(FIND "${CMAKE_MATCH_1}" "```" end)
 string(SUBSTRING "${CMAKE_MATCH_1}" 0 ${end} program)
-file(WRITE ${WORK_DIR}/readme_program.cpp "${program}")
+file(WRITE ${WORK_DIR}/guide_program.cpp "${program}")
 
 # consumer(NAME EXAMPLE_DIR [CMAKE_ARGS...]): configure, build, run the executable NAME.
 function(consumer name dir)
@@ -34,8 +33,8 @@ function(consumer name dir)
 endfunction()
 # Core only: must configure although SUNDIALS cannot be found.
 consumer(embed embed -DCMAKE_DISABLE_FIND_PACKAGE_SUNDIALS=ON
-         -DNONHOLO_README_PROGRAM=${WORK_DIR}/readme_program.cpp)
-run(${WORK_DIR}/embed/readme_program)
+         -DNONHOLO_GUIDE_PROGRAM=${WORK_DIR}/guide_program.cpp)
+run(${WORK_DIR}/embed/guide_program)
 consumer(embed_reference embed_reference)
 consumer(embed_scenarios embed_scenarios)
 if(WITH_MPI)  # one rank, without mpirun

@@ -1,4 +1,4 @@
-// The in-run accuracy check (nonholo/accuracy.hpp, README "Accuracy check"): it leaves the run
+// The in-run accuracy check (nonholo/accuracy.hpp, docs/guide/methods.md "Accuracy check"): it leaves the run
 // as it is, its estimate follows the true error (ARKODE at 1e-14 as the reference), and the
 // hostile cases of issue 23 that ended `ok` now end `inaccurate`, with advice that works.
 #include <nonholo/accuracy.hpp>

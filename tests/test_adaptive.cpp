@@ -47,7 +47,7 @@ Outcome run_to(const scenarios::SceneSetup& setup, int order, double tol, double
   return {s, stepper.accepted(), stepper.rejected()};
 }
 
-// The error at the end over the tolerance (README "Adaptive steps" lists each): sleigh (t = 10,
+// The error at the end over the tolerance (docs/guide/methods.md "Adaptive steps" lists each): sleigh (t = 10,
 // exact) order 2: 4.3-4.4 (1e-4 ... 1e-9), orders 4, 6, 8: 1.8-3.0, 0.44-2.6, 0.42-1.7 (1e-4
 // ... 1e-11); 10-body chain (t = 100, against ARKODE at 1e-15) order 2: 0.22-0.23 (1e-4 ...
 // 1e-6), order 4: 0.57-0.89, order 6: 0.095-0.53, order 8: 0.016-0.44 (1e-4 ... 1e-11). The

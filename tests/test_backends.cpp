@@ -1,4 +1,4 @@
-// The choice of factorisation by structure (DESIGN.md section 3, "model only what a scene
+// The choice of factorisation by structure (docs/design.md section 3, "model only what a scene
 // needs"): the structural facts it rests on, the choice each scene gets, clear refusals
 // when a forced backend cannot serve, and agreement of all backends on the same step.
 #include <nonholo/rattle.hpp>
@@ -98,7 +98,7 @@ TEST(BackendChoice, EachSceneGetsTheBackendItsStructureCallsFor) {
       {"particle", {}, "dense"},      // one row from a callback
       {"sleigh", {}, "banded"},       // a knife edge element: the fused step
       {"snakeboard", {}, "dense"},    // two rows on one body: one 2 x 2 block
-      // Chains of elements are streamed whatever C's structure (DESIGN.md section 7).
+      // Chains of elements are streamed whatever C's structure (docs/design.md section 7).
       {"sleigh_chain", {"bodies=3"}, "banded"},
       {"sleigh_chain", {"bodies=10"}, "banded"},
       {"sleigh_chain", {"bodies=1000"}, "banded"},

@@ -1,4 +1,4 @@
-// The chain scenes (DESIGN.md sections 4 and 5): their one-forms against the geometry they
+// The chain scenes (docs/design.md sections 4 and 5): their one-forms against the geometry they
 // encode, the pattern of C at angles that zero some of its values, the single-body chain
 // against the sleigh, the hitch gap in holonomic mode, the post-momentum energy in one-form
 // mode, the generated train, and the holonomic iteration's failure path.
@@ -200,7 +200,7 @@ TEST(Chain, HolonomicModeKeepsTheHitchGapBelow1e10) {
 }
 
 // One-form mode with f = 0 is the paper's reflection: the post-momentum energy is exact up
-// to round-off. Bound: each step adds a few eps of relative error (DESIGN.md: round-off),
+// to round-off. Bound: each step adds a few eps of relative error (docs/design.md: round-off),
 // so 10^4 steps stay below 10^4 * 8 eps = 1.8e-11; holonomic mode's position correction is
 // not a reflection, and its energy moves far more (checked so that the bound means
 // something).

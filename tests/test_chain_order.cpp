@@ -25,7 +25,7 @@ using testing::dense_applied_force;
 using testing::dense_mass;
 using testing::dense_one_forms;
 
-// The index-reduced equations of DESIGN.md section 1 in first-order form y = (q, qdot).
+// The index-reduced equations of docs/design.md section 1 in first-order form y = (q, qdot).
 class IndexReducedChain {
  public:
   explicit IndexReducedChain(const Model& model)

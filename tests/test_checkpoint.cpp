@@ -1,4 +1,4 @@
-// Checkpoint and resume (`nonholo run --checkpoint` / `--resume`, README "Long runs"): a run
+// Checkpoint and resume (`nonholo run --checkpoint` / `--resume`, docs/guide/long-runs.md): a run
 // interrupted a third of the way (its final checkpoint) and resumed is the uninterrupted run, bit
 // for bit: every byte of its output file and every summary value but the timings. Over scenes,
 // methods, orders, hitch modes, adaptive steps, forces, rigid bodies and the implicit form; a

@@ -1,4 +1,4 @@
-// Orders 4 and 6 by composing the double step (composition.hpp, DESIGN.md section 9): the
+// Orders 4 and 6 by composing the double step (composition.hpp, docs/design.md section 9): the
 // coefficient tables against the order conditions; the orders measured against the sleigh's
 // exact solution and against tight ARKODE references on a chain (both hitch modes), a driven
 // train and a controlled snakeboard; the energy of p~, the constraints and the snakeboard's

@@ -1,4 +1,4 @@
-// The discrete Lagrange-d'Alembert baseline (DESIGN.md section 2) against the exact sleigh and
+// The discrete Lagrange-d'Alembert baseline (docs/design.md section 2) against the exact sleigh and
 // particle of section 6: the midpoint constraint gives order 2, the left-point one order 1
 // and (the paper's observation) a far larger error; neither keeps the particle's energy,
 // which the reflection method keeps exactly. Newton failures leave the state unchanged.

@@ -1,4 +1,4 @@
-// Accuracy against the exact solutions of DESIGN.md section 6: the scheme is of order 2
+// Accuracy against the exact solutions of docs/design.md section 6: the scheme is of order 2
 // (errors at h and h/2 in the ratio 4), and the start with lambda~_0 = lambda(0) is far
 // more accurate than lambda~_0 = 0.
 #include <nonholo/rattle.hpp>
@@ -103,7 +103,7 @@ TEST(ExactOrder, SleighWithMultiplierRestartsIsSecondOrder) {
 }
 
 TEST(ExactOrder, SleighStartWithTheContinuousMultiplierIsMoreAccurate) {
-  // DESIGN.md: with the paper's plain method lambda~_0 = 0 costs about 16 times the error of
+  // docs/design.md: with the paper's plain method lambda~_0 = 0 costs about 16 times the error of
   // lambda~_0 = lambda(0). The zero start is still order 2 (the error is a constant times
   // h^2), so the ratio is checked at one step size, and both runs converge. The automatic
   // restarts see the zero start as a parasitic amplitude of order h (lambda~ - lambda_s =

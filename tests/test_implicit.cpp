@@ -1,4 +1,4 @@
-// The implicit general form (DESIGN.md section 2, first display) for a configuration-
+// The implicit general form (docs/design.md section 2, first display) for a configuration-
 // dependent metric: on the sleigh in contact-point coordinates (the paper's section 6) it is
 // of order 2 against the exact solution and agrees with the explicit method on the
 // centre-of-mass sleigh (the same physical system) to that order; with a constant metric it
@@ -151,7 +151,7 @@ TEST(Implicit, WithAConstantMetricItIsTheExplicitMethod) {
   EXPECT_EQ(step(implicit_model, wrong, t, {0.01}), Status::MethodNotApplicable);
 }
 
-// The implicit form has the explicit method's period-2 mode (README): on sleigh_contact with
+// The implicit form has the explicit method's period-2 mode (docs/results/behaviour.md): on sleigh_contact with
 // the plain method the energy of the average momentum collapses by t = 200; the default
 // automatic restarts (measured against the continuous multiplier with the metric's
 // Christoffel terms) keep it and the trajectory.

@@ -1,4 +1,4 @@
-// What the theory says holds to round-off (DESIGN.md section 2): with f = 0 the energy of
+// What the theory says holds to round-off (docs/design.md section 2): with f = 0 the energy of
 // the post-momenta for any distribution, the constraint residual of p~ at every step, and
 // the snakeboard's rotor momentum (a horizontal symmetry). The energy of p~ itself is only
 // O(h^2) accurate, and the test checks that too, so that the two are not confused.

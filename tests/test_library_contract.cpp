@@ -1,4 +1,4 @@
-// The library's contract with an embedding code (README "Using the library"): workspaces
+// The library's contract with an embedding code (docs/guide/library.md): workspaces
 // cannot be built from a temporary model; a step never throws, not even when a model callback
 // does; a step checks its options; set-up errors are std::invalid_argument; a callback that
 // fills too few values is caught at the start; times are t0 + k h, not sums.

@@ -3,7 +3,7 @@
 // that flips sign every step. For a reversible two-step method that component follows the
 // time-reversed linearisation of the flow, so where the continuous motion is attracting it
 // grows: on the sleigh, whose straight motion attracts at the rate kappa = a m c / J
-// (DESIGN.md section 6), it grows like exp(kappa t) from a seed of order h^3, until it holds
+// (docs/design.md section 6), it grows like exp(kappa t) from a seed of order h^3, until it holds
 // a large share of the kinetic energy (the post-momentum energy stays exact throughout).
 // These tests pin that behaviour of the plain method (RestartMode::Never) down so that any
 // change to it is seen; test_restart.cpp tests the remedy.

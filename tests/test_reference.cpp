@@ -1,5 +1,5 @@
 // The reference integrators of the index-reduced equations against the exact solutions of
-// DESIGN.md section 6: RK4 is of order 4; ARKODE's adaptive Dormand-Prince and Verner pairs (6(5), 8(7))
+// docs/design.md section 6: RK4 is of order 4; ARKODE's adaptive Dormand-Prince and Verner pairs (6(5), 8(7))
 // follow their tolerance; projection keeps the constraints (and hitches) to round-off.
 #include <nonholo/reference/integrators.hpp>
 #include <nonholo/scenarios/exact_solutions.hpp>

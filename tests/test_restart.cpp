@@ -1,5 +1,5 @@
-// Energy-exact restarts and the automatic control of the period-2 mode (DESIGN.md section 8):
-// the restart against the closed form of DESIGN.md, its invariants (post-momentum energy,
+// Energy-exact restarts and the automatic control of the period-2 mode (docs/design.md section 8):
+// the restart against the closed form of docs/design.md, its invariants (post-momentum energy,
 // with a potential the averaged potential too, with forces the work-energy balance; the
 // constraint residual; momentum maps), its failures, and long runs with the default options
 // against exact solutions and a tight ARKODE reference.
@@ -63,7 +63,7 @@ TEST(Restart, MatchesTheClosedFormAndRemovesTheMode) {
   const double before = parasitic(model, ws, s, h);
   const Diagnostics d0 = diagnose(model, ws, s, h);
 
-  // DESIGN.md section 8, computed independently: P = p~^T M^-1 p~, L = lambda_s^T C lambda_s,
+  // docs/design.md section 8, computed independently: P = p~^T M^-1 p~, L = lambda_s^T C lambda_s,
   // u = 2E / (P/2 + sqrt(P^2/4 + h^2 L E / 2)), p~ <- sqrt(u) p~, lambda~ <- u lambda_s.
   Vector v(3), lambda_s(1), force(3);
   model.inverse_mass().multiply(s.p.data(), v.data());

@@ -1,4 +1,4 @@
-// 3-D rigid bodies, accuracy (README "3-D bodies"): orders 2, 4 and 6 against the Suslov top's
+// 3-D rigid bodies, accuracy (docs/guide/rigid-bodies.md): orders 2, 4 and 6 against the Suslov top's
 // closed form and against tight ARKODE runs of the index-reduced equations (Chaplygin ball,
 // ball chain, rolling disk), the error constant e_R / h^2 of the Moser-Veselov and MV-F
 // Lagrangians, the period-2 mode's bursts on the Suslov top with the plain method and its

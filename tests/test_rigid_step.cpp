@@ -1,4 +1,4 @@
-// 3-D rigid bodies, the step (README "3-D bodies"): the invariants of every 3-D scene over 10^5
+// 3-D rigid bodies, the step (docs/guide/rigid-bodies.md): the invariants of every 3-D scene over 10^5
 // steps (post-momentum energy, momentum maps, Veselova's integral, constraint residual,
 // quaternion norm; the disk's discrete work identity), the exponential Lagrangian's drift where
 // Moser-Veselov is exact, the Legendre transform refused beyond its range with the state
@@ -188,7 +188,7 @@ TEST(RigidStep, ExponentialLagrangianDriftsWhereMoserVeselovIsExact) {
   for (const char* name : {"suslov", "chaplygin_ball"}) {
     const auto setup = scene(name);
     // With the default restarts (energy-exact: they move no energy): the plain method's mode
-    // bursts would add the round-off's bias of about 0.2 eps per step (README).
+    // bursts would add the round-off's bias of about 0.2 eps per step (docs/results/behaviour.md).
     const double mv = watch(setup, options(0.01), steps).energy_post;
     const double mvf = watch(setup, options(0.01, "auto", RotationLagrangian::MoserVeselovF), steps).energy_post;
     const double ex = watch(setup, options(0.01, "auto", RotationLagrangian::Exponential), steps).energy_post;

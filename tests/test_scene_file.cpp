@@ -291,7 +291,7 @@ TEST(SceneFile, RigidBodyExamplesRunFromTheCommandLine) {
     EXPECT_THAT(r.out, ::testing::HasSubstr("status=ok"));
     if (name == "rolling_disk.json") {
       // Gravity does work; the height row's position corrections (holonomic mode) add O(h^2)
-      // work of their own (README: energy_balance_err_max), a one-form height row none.
+      // work of their own (docs/reference/summary.md: energy_balance_err_max), a one-form height row none.
       EXPECT_LE(field(r.out, "energy_balance_err_max"), 1e-5) << r.out;
       const Cli oneform = cli({"run", example(name), "--hitch", "oneform"});
       ASSERT_EQ(oneform.code, 0) << oneform.err;

@@ -1,4 +1,4 @@
-// The scenes as DESIGN.md section 5 defines them: coordinates, metric, one-form rows
+// The scenes as docs/design.md section 5 defines them: coordinates, metric, one-form rows
 // (checked against their geometric meaning), analytic bias terms against a finite
 // difference of the rows, and parameter handling.
 #include <nonholo/dynamics.hpp>

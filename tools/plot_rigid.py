@@ -1,4 +1,4 @@
-"""Draws the 3-D scenes from the HDF5 files tools/rigid.sh writes (README "3-D bodies"):
+"""Draws the 3-D scenes from the HDF5 files tools/rigid.sh writes (docs/guide/rigid-bodies.md):
 the Chaplygin ball's contact path, the rolling disk's contact path, the Suslov top's angular
 velocity against its closed form, and its error with the default restarts and with the
 plain method (the period-2 mode's bursts).

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The 3-D example of README "3-D bodies": a Chaplygin ball, a rolling disk and the Suslov top
+# The 3-D example of docs/guide/rigid-bodies.md: a Chaplygin ball, a rolling disk and the Suslov top
 # (with the defaults and with the plain method) to HDF5 in ./out/rigid, their summaries, and a
 # picture of them in out/rigid_bodies.png (tools/plot_rigid.py).
 set -euo pipefail

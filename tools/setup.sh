@@ -8,7 +8,8 @@ NONHOLO_BUILD="${NONHOLO_BUILD:-$NONHOLO_ROOT/build}"
 
 packages=(g++ make cmake libeigen3-dev libsuitesparse-dev libgtest-dev libgmock-dev
           libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev nlohmann-json3-dev
-          python3-dev python3-numpy pybind11-dev python3-pytest
+          python3-dev python3-numpy pybind11-dev python3-pytest python3-jsonschema
+          python3-venv python3-pip python3-setuptools python3-wheel python3-build mypy
           libhdf5-dev python3-h5py python3-matplotlib
           libopenmpi-dev openmpi-bin)
 

@@ -23,7 +23,7 @@ namespace {
 // first; raised where a run shows more (AdaptiveStepper::round_off_).
 constexpr double kNoise = 64.0 * std::numeric_limits<double>::epsilon();
 // The local error allowed per unit step, in units of tol / horizon: the errors of the symmetric
-// compositions add up to less than their local errors' sum (README "Adaptive steps").
+// compositions add up to less than their local errors' sum (docs/guide/methods.md "Adaptive steps").
 constexpr double kBudget = 10.0;
 
 }  // namespace

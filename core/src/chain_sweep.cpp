@@ -1,4 +1,4 @@
-// The explicit step of a chain of elements in two sweeps over the bodies (DESIGN.md section 7):
+// The explicit step of a chain of elements in two sweeps over the bodies (docs/design.md section 7):
 //
 // forward, body i entering: half kick and drift of body i, sin/cos of its new angle, its
 //   thrust and the spring to body i-1 at t_{k+1}; then body i-1 is complete: p^ = p_half +

@@ -1,6 +1,6 @@
 // The period-2 mode of the implicit general form (implicit.hpp): the arriving momentum p+ and
 // the average p~ = P* p+ differ by a constraint impulse, p+ = p~ - (h/2) mu^T lambda~, and
-// lambda~ has the explicit method's parasitic component (README, "The period-2 mode"). It is
+// lambda~ has the explicit method's parasitic component (docs/results/behaviour.md, "The period-2 mode"). It is
 // measured against the continuous multiplier lambda_s of the Lagrangian with metric M(q), and
 // a restart sets p+ = s p~ - (h/2) mu^T lambda_s(q, s p~) with the scale s that keeps the
 // energy of the arriving post-momentum p+ - (h/2) f (with the averaged potential), as the

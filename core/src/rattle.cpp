@@ -1,12 +1,12 @@
-// The nonholonomic RATTLE step (DESIGN.md section 2):
+// The nonholonomic RATTLE step (docs/design.md section 2):
 //   p_{k+1/2} = p~_k + (h/2)(f_k + mu_k^T lambda~_k)      (state.force holds the bracket)
 //   q_{k+1}   = q_k + h M^-1 p_{k+1/2}
 //   p^        = p_{k+1/2} + (h/2) f_{k+1}
 //   C(q_{k+1}) lambda~_{k+1} = -(2/h) mu_{k+1} M^-1 p^
 //   p~_{k+1}  = p^ + (h/2) mu_{k+1}^T lambda~_{k+1}
 // In holonomic mode the first half kick also gets (h/2) mu_k^T dlambda so that g(q_{k+1}) = 0
-// (DESIGN.md section 4); see enforce_gaps. Before the new state is committed, control_mode
-// measures the period-2 mode there and restarts the multipliers (DESIGN.md section 8,
+// (docs/design.md section 4); see enforce_gaps. Before the new state is committed, control_mode
+// measures the period-2 mode there and restarts the multipliers (docs/design.md section 8,
 // restart.cpp) as RattleOptions::restart asks. Orders 4 and 6 compose this step with signed
 // substeps (detail::advance): composition.cpp.
 #include <nonholo/rattle.hpp>

@@ -1,10 +1,10 @@
-// Energy-exact restarts of the multipliers (DESIGN.md section 8). The arriving post-momentum
+// Energy-exact restarts of the multipliers (docs/design.md section 8). The arriving post-momentum
 // of a state is p_- = p~ - (h/2)(f + mu^T lambda~). A restart replaces lambda~ by the
 // continuous multiplier of a rescaled momentum p~' = p~_J + s p~_r (p~_J: what the momentum
 // maps see, kept; p~_r: the rest, scaled). Since the bias is quadratic in the velocity,
 // lambda_s(q, p~_J + s p~_r) = lambda_F + lambda_0 + s lambda_1 + s^2 lambda_2, and p_-(s) =
 // a + s b + s^2 c with fixed vectors a, b, c: its energy is a quartic in s, and with a
-// potential the averaged V of DESIGN.md is added. One scalar equation keeps the energy.
+// potential the averaged V of docs/design.md is added. One scalar equation keeps the energy.
 #include <nonholo/restart.hpp>
 
 #include <nonholo/diagnostics.hpp>

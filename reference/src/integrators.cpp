@@ -189,7 +189,7 @@ Status Integrator::advance_to(double t) {
   // A stop time at every output: ARKODE's interpolated outputs were measured 100 times less
   // accurate than its steps (sleigh, tol 1e-8: 2.3e-6 against 2.7e-8 at t = 10, with the
   // Lagrange or the Hermite interpolant), so it lands on t. The price: its step cannot exceed
-  // the output interval (the run warns when that capped it, README "Speed against error").
+  // the output interval (the run warns when that capped it, docs/results/speed-against-error.md).
   Arkode& a = *arkode_;
   a.failure = Status::Ok;
   ARKStepSetStopTime(a.memory, t);

@@ -30,6 +30,11 @@ namespace {
 constexpr const char* kCommands = "run, batch, list, wp";
 constexpr const char* kRunHelp = "integrate one scene and print a summary line";
 constexpr const char* kBatchHelp = "integrate many trajectories of one scene in parallel";
+// Where --help sends a reader next (the docs live in the repository).
+constexpr const char* kHelpFooter =
+    "Scenes and their parameters: nonholo list. Scene files (FILE.json): docs/reference/scene-files.md.\n"
+    "Output files: CSV, or HDF5 for .h5/.hdf5. Summary keys and exit codes: docs/reference/summary.md,\n"
+    "docs/reference/statuses.md.";
 
 // The options `run` and `batch` share, with their raw strings for the enums.
 struct RunOptions {
@@ -41,7 +46,7 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
   cmd->add_option("scene", o.config.scene,
                   "scene name (particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train, suslov, "
                   "veselova, chaplygin_ball, ball_chain, rolling_disk; `nonholo list` shows their parameters) or a "
-                  "scene file FILE.json (README \"Scene files\")");
+                  "scene file FILE.json (docs/reference/scene-files.md)");
   cmd->add_option("--dt", o.config.dt, "time step (default: the scene's)");
   cmd->add_option("--t-end", o.config.t_end, "final time (default: the scene's)");
   cmd->add_option("--set", o.config.assignments, "set a scene parameter, NAME=VALUE (repeatable)")
@@ -193,6 +198,7 @@ void finish_run_command(const CLI::App* cmd, RunConfig& run, const std::string& 
 // The options of the run and batch commands, on their subcommands.
 void add_run_command(CLI::App* cmd, RunOptions& run, std::string& checkpoint_every) {
   add_run_options(cmd, run);
+  cmd->footer(kHelpFooter);
   cmd->add_option("--out", run.config.csv_path,
                   "write the trajectory to FILE.csv, or FILE.h5 / FILE.hdf5 (HDF5, with p, gap and the summary), or "
                   "- (CSV on standard output; the summary line then goes to standard error)");
@@ -209,6 +215,7 @@ void add_run_command(CLI::App* cmd, RunOptions& run, std::string& checkpoint_eve
 
 void add_batch_command(CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch) {
   add_run_options(cmd, batch_run);
+  cmd->footer(kHelpFooter);
   cmd->add_option("--count", batch.count, "number of trajectories")->required();
   cmd->add_option("--threads", batch.threads, "threads (default: all cores)");
   cmd->add_option("--vary", batch.vary, "draw a parameter per trajectory, NAME=LO:HI (repeatable)")

@@ -35,7 +35,7 @@ SceneSetup build_chain(const ChainSpec& spec) {
 
   // Local elements (nonholo/elements.hpp), body by body: blade of i, then the hitch from i
   // (rear, d_i) to i+1 (front, f_{i+1}) and the spring between them. Rows and gaps come out
-  // in this order, and the step streams the chain in two sweeps (DESIGN.md section 7).
+  // in this order, and the step streams the chain in two sweeps (docs/design.md section 7).
   ModelBuilder b;
   const int rows = n_bodies + (hitched ? 2 * (n_bodies - 1) : 0);
   b.reserve(n_bodies, 3 * n_bodies, rows, 3 * n_bodies + (hitched ? 8 * (n_bodies - 1) : 0));

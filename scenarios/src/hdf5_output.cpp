@@ -19,7 +19,7 @@
 namespace nonholo::scenarios {
 namespace {
 
-// What the numbers are in (README "Units"): no unit is fixed, the scene's parameters give them.
+// What the numbers are in (docs/guide/command-line.md "Units"): no unit is fixed, the scene's parameters give them.
 constexpr const char* kUnits =
     "consistent units, SI suggested (m, kg, s, rad): lengths, masses and times in the units of the scene's "
     "parameters, angles in radians, t in the time unit, p in mass x length / time";

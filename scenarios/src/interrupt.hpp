@@ -11,7 +11,7 @@ const char* interrupt_name();  // "SIGINT" (Ctrl-C) or "SIGTERM" (mpirun's, kill
 void request_interrupt();
 
 // SIGINT and SIGTERM set the flag while in scope (mpirun turns Ctrl-C into SIGTERM for its
-// ranks, and a SIGKILL a second later unless it is told to wait: README "MPI ensembles"); the
+// ranks, and a SIGKILL a second later unless it is told to wait: docs/guide/mpi.md); the
 // previous handlers and a clear flag come back after.
 class InterruptScope {
  public:

@@ -556,7 +556,7 @@ RunSummary integrate_scene(const PreparedRun& run, const Parameters& params, con
   if (reflection && model.has_rigid_bodies()) summary.rotation = to_string(choice.rattle.rotation);
   summary.parasitic_max = std::numeric_limits<double>::quiet_NaN();  // until measured
   // With external forces the energy is not an invariant: the balance against the work is. The
-  // order-2 reflection step has its discrete work-energy identity (DESIGN.md section 8); the
+  // order-2 reflection step has its discrete work-energy identity (docs/design.md section 8); the
   // other methods and the composed steps (whose multipliers restart) integrate the power.
   const bool forced = model.has_external_force();
   summary.has_work = forced;

@@ -71,7 +71,7 @@ struct MethodChoice {
   RattleOptions rattle;               // reflection
   reference::Options reference;       // the others
   sparse::Backend backend = sparse::Backend::Auto;
-  // Steps between two samples of the accuracy check (0: off; README "Accuracy check").
+  // Steps between two samples of the accuracy check (0: off; docs/guide/methods.md "Accuracy check").
   int accuracy_every = 32;
   // Reflection, orders 4-8: adaptive composed steps when tol > 0 (RunConfig::adaptive).
   AdaptiveOptions adaptive = no_adaptive();

@@ -765,7 +765,7 @@ SceneSetup build_system(const System& s) {
   }
   // Local elements (nonholo/elements.hpp), their rows body by body (the one-body constraints of
   // body b, then those joining b to a later body) whatever the file's order: a chain written
-  // in any order is streamed by the fused step (DESIGN.md section 7). Each row is labelled with
+  // in any order is streamed by the fused step (docs/design.md section 7). Each row is labelled with
   // its element of the file, for the messages of the set-up and of failed steps ("pivot of row
   // 7 of C (constraints[3] (knife_edge on body 2)) ...").
   std::vector<std::vector<const Constraint*>> of_body(static_cast<std::size_t>(n)), joining(static_cast<std::size_t>(n));

@@ -1,4 +1,4 @@
-// sleigh_chain (DESIGN.md section 5): N identical Chaplygin sleighs hitched rear to front,
+// sleigh_chain (docs/design.md section 5): N identical Chaplygin sleighs hitched rear to front,
 // optional torsional springs between neighbours; hitched=0 leaves only the springs.
 #include <nonholo/scenarios/chain.hpp>
 

@@ -1,4 +1,4 @@
-// wheeled_train (DESIGN.md section 5): a generated sleigh chain whose lead body is driven.
+// wheeled_train (docs/design.md section 5): a generated sleigh chain whose lead body is driven.
 // Per-body m, I, a, d, f are drawn uniformly from [(1 - spread) x, (1 + spread) x] around
 // the nominal x, from a seeded splitmix64 stream (the same on every platform). The lead
 // gets a force along its heading F(t) = N (force + force_amp sin(force_omega t)) and a

@@ -96,7 +96,7 @@ struct Case {
   HitchMode hitch = HitchMode::Holonomic;  // the reflection method's
 };
 
-// The oracle's configuration at the sample times: the exact solution where DESIGN.md
+// The oracle's configuration at the sample times: the exact solution where docs/design.md
 // section 6 gives one, otherwise ARKODE Fehlberg 8(7) at tolerance `tol` (at 1e-14 it meets
 // order 8 at H = 0.05 to 5e-12 on a 100-body chain at t = 100, bench_time_to_error; Verner
 // 6(5), the oracle before, was 1e-9 off there).

@@ -19,7 +19,7 @@ Vector dense_project(const Model& model, ConstVecRef q, ConstVecRef p);
 Vector dense_multiplier(const Model& model, double t, ConstVecRef q, ConstVecRef qdot);
 // (P - Q)* at q, as a dense n x n matrix acting on momenta.
 Eigen::MatrixXd dense_reflection(const Model& model, ConstVecRef q);
-// DESIGN.md section 2, line by line.
+// docs/design.md section 2, line by line.
 void dense_rattle_step(const Model& model, State& state, double h);
 
 }  // namespace nonholo::testing

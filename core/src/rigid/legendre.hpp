@@ -1,5 +1,5 @@
 #pragma once
-// The discrete Legendre transforms of a rigid body's rotation (README "3-D bodies"): the
+// The discrete Legendre transforms of a rigid body's rotation (docs/guide/rigid-bodies.md): the
 // body-frame post-momentum p at g_k determines the increment W = R_k^T R_{k+1} of a step of
 // signed size h, and the pre-momentum at g_{k+1} is W^T p. For the Moser-Veselov Lagrangian,
 // with W = cay(v): 2 (I v + v x I v) = h p (1 + |v|^2), solved by Newton from v = (h/2) I^-1 p

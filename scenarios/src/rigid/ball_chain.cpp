@@ -3,7 +3,7 @@
 // i to i+1), so C is banded. Its horizontal symmetries: each ball's spin about the vertical
 // through its centre, and the whole chain rolling along x and along y (N + 2 momentum maps,
 // declared as generators). With homogeneous balls (I = J Id, the default) the rods make D
-// non-invariant: the non-trivial case of the paper's Theorem 1 (README "3-D bodies").
+// non-invariant: the non-trivial case of the paper's Theorem 1 (docs/guide/rigid-bodies.md).
 #include <nonholo/model_builder.hpp>
 #include <nonholo/scenarios/scene.hpp>
 

@@ -1,5 +1,5 @@
 #pragma once
-// The horizontal symmetries of rolling balls (README "3-D bodies"), as generators in velocity
+// The horizontal symmetries of rolling balls (docs/guide/rigid-bodies.md), as generators in velocity
 // space for ModelBuilder::symmetry: each ball's spin about the vertical through its centre, and
 // all balls rolling together about a horizontal space axis. Both lie in the rolling (and rod)
 // constraints' distribution, so their momentum maps are exact invariants of the scheme.

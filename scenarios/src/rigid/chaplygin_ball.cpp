@@ -3,7 +3,7 @@
 // contact angular momentum R K, K = I Omega + m r^2 gamma x (Omega x gamma), is constant in
 // space: its three components are the momentum maps of horizontal symmetries (declared with
 // ModelBuilder::symmetry, so that restarts keep them), and they span D: the restarts then reset
-// lambda~ alone (README "3-D bodies").
+// lambda~ alone (docs/guide/rigid-bodies.md).
 #include <nonholo/model_builder.hpp>
 #include <nonholo/scenarios/scene.hpp>
 

@@ -2,7 +2,7 @@
 // component along an axis a fixed in the body, <Omega, a> = 0 (a left-invariant distribution;
 // nonholo/elements.hpp BodyAxisConstraint). With a = e3 and I12 = 0 its angular velocity has a
 // closed form (exact_solutions.hpp, SuslovSolution): it tends to a steady rotation at the rate
-// kappa at which the flow contracts, which makes the period-2 mode grow (README "3-D bodies").
+// kappa at which the flow contracts, which makes the period-2 mode grow (docs/guide/rigid-bodies.md).
 #include <nonholo/model_builder.hpp>
 #include <nonholo/scenarios/scene.hpp>
 

@@ -2,7 +2,7 @@
 // component along the vertical, <Omega, gamma> = 0 with gamma = R^T e3 (a right-invariant
 // distribution; nonholo/elements.hpp SpaceAxisConstraint). It has an invariant measure, and
 // besides the energy the integral F = |I Omega|^2 - (I Omega . gamma)^2, which the scheme keeps
-// by its structure (README "3-D bodies").
+// by its structure (docs/guide/rigid-bodies.md).
 #include <nonholo/model_builder.hpp>
 #include <nonholo/scenarios/scene.hpp>
 
