@@ -1,10 +1,11 @@
 #pragma once
-// A cheap estimate of a run's global error in q, on by default in `nonholo run` (README
-// "Accuracy check"). Every `every` steps one pair of steps is sampled: besides the run's two
-// steps of h from x_k, a shadow takes ONE step of 2h from x_k (its own workspace and state, so
-// the run is bit for bit the same with and without the watch). For a method of order p the
-// difference is (2^(p+1) - 2) times the local error of one step of h, to leading order
-// (step doubling). The local errors are accumulated into a global estimate (GlobalError).
+/// @file
+/// A cheap estimate of a run's global error in q, on by default in `nonholo run` (README
+/// "Accuracy check"). Every `every` steps one pair of steps is sampled: besides the run's two
+/// steps of h from x_k, a shadow takes ONE step of 2h from x_k (its own workspace and state, so
+/// the run is bit for bit the same with and without the watch). For a method of order p the
+/// difference is (2^(p+1) - 2) times the local error of one step of h, to leading order
+/// (step doubling). The local errors are accumulated into a global estimate (GlobalError).
 #include <nonholo/archive.hpp>
 #include <nonholo/model.hpp>
 #include <nonholo/rattle_options.hpp>
@@ -17,55 +18,68 @@
 
 namespace nonholo {
 
-// Local errors to a global one. Each sample says that the steps around it made local errors
-// dq in q and dv in the velocity M^-1 p per step (max norms). Errors in q are carried forward as
-// they are; an error in the velocity drifts the configuration by (t - t_w) dv after it, as in
-// free motion. So at time t
-//   E(t) = sum_w n_w (dq_w + (t - t_w) dv_w)
-// over the stretches w of n_w steps at time t_w, kept as three running sums (no history). It
-// neither damps errors (the sleigh's attracting straight line) nor amplifies them (an unstable
-// chain); README's table says how it tracks the true error.
+/// Local errors to a global one. Each sample says that the steps around it made local errors
+/// dq in q and dv in the velocity M^-1 p per step (max norms). Errors in q are carried forward as
+/// they are; an error in the velocity drifts the configuration by (t - t_w) dv after it, as in
+/// free motion. So at time t
+/// ~~~{.unparsed}
+///   E(t) = sum_w n_w (dq_w + (t - t_w) dv_w)
+/// ~~~
+/// over the stretches w of n_w steps at time t_w, kept as three running sums (no history). It
+/// neither damps errors (the sleigh's attracting straight line) nor amplifies them (an unstable
+/// chain); README's table says how it tracks the true error.
 class GlobalError {
  public:
+  /// A stretch of `steps` steps around time t, each with local errors dq in q and dv in the
+  /// velocity.
   void add(double t, double steps, double dq, double dv) {
     q_sum_ += steps * dq;
     v_sum_ += steps * dv;
     tv_sum_ += steps * dv * t;
   }
+  /// E(t): the global error in q at time t of the stretches added so far.
   double at(double t) const { return q_sum_ + t * v_sum_ - tv_sum_; }
+  /// Checkpoints (archive.hpp): the three running sums.
+  ///@{
   void save(OutArchive& a) const { a(q_sum_), a(v_sum_), a(tv_sum_); }
   void load(InArchive& a) { a(q_sum_), a(v_sum_), a(tv_sum_); }
+  ///@}
 
  private:
   double q_sum_ = 0.0, v_sum_ = 0.0, tv_sum_ = 0.0;
 };
 
-// (2^(p+1) - 2): the step-doubling difference of a method of order p in units of its local error.
+/// (2^(p+1) - 2): the step-doubling difference of a method of order p in units of its local error.
 double doubling_factor(int order);
 
-// The method-independent part of the check: when to sample, how a sample's differences become
-// local errors, and their sum; the extent of the motion. A method's watch (AccuracyWatch for the
-// reflection step; the RK4 runner's, with reference::Integrator::rk4_trial) takes the shadow steps
-// and feeds it.
-//
-// every: the most steps between the starts of two samples (even, at least 2). Sampling starts
-// dense (a pair every 2 steps) and spreads out, doubling the interval up to `every` while
-// consecutive samples agree within a factor 4, and quartering it when they do not (a transient,
-// the start's): a stretch between two samples is counted with their mean. A sample costs about
-// one step of 2h and a factorisation: about 2/every of the run once spread out.
+/// The method-independent part of the check: when to sample, how a sample's differences become
+/// local errors, and their sum; the extent of the motion. A method's watch (AccuracyWatch for the
+/// reflection step; the RK4 runner's, with reference::Integrator::rk4_trial) takes the shadow steps
+/// and feeds it.
+///
+/// every: the most steps between the starts of two samples (even, at least 2). Sampling starts
+/// dense (a pair every 2 steps) and spreads out, doubling the interval up to `every` while
+/// consecutive samples agree within a factor 4, and quartering it when they do not (a transient,
+/// the start's): a stretch between two samples is counted with their mean. A sample costs about
+/// one step of 2h and a factorisation: about 2/every of the run once spread out.
 class DoublingEstimate {
  public:
+  /// For a configuration of nq entries and a method of order `order`; throws
+  /// std::invalid_argument unless `every` is even and at least 2.
   DoublingEstimate(Eigen::Index nq, int order, int every);
 
-  // Before the run's step: whether the shadow's step of 2h should start now (then call
-  // include() with the configuration, and started() or failed()). Inline: it runs every step.
+  /// Before the run's step: whether the shadow's step of 2h should start now (then call
+  /// include() with the configuration, and started() or failed()). Inline: it runs every step.
   bool due() const { return pending_at_ < 0 && step_ >= next_at_; }
-  bool pending() const { return pending_at_ >= 0; }  // a shadow's pair under way
-  void include(ConstVecRef q);  // into the extent
+  bool pending() const { return pending_at_ >= 0; }  ///< a shadow's pair under way
+  void include(ConstVecRef q);  ///< into the extent
+  /// The shadow's step of 2h succeeded: the pair ends after the run's next two steps.
   void started() { pending_at_ = step_ + 2; }
+  /// The shadow's step of 2h from time t failed with `status` (its name) and `message`: counted,
+  /// the first one kept (first_failure()), and the next sample tried `every` steps later.
   void failed(double t, const char* status, const char* message);
-  // After the run's step to (t, q): whether it ends a pair (then call sample()). q must stay
-  // alive and in place until the next call (the run's own state).
+  /// After the run's step to (t, q): whether it ends a pair (then call sample()). q must stay
+  /// alive and in place until the next call (the run's own state).
   bool stepped(double t, ConstVecRef q) {
     ++step_;
     t_ = t;
@@ -74,39 +88,47 @@ class DoublingEstimate {
     pending_at_ = -1;
     return true;
   }
-  // The pair's differences, shadow minus run, in q and in the velocity (max norms), the run's
-  // speed |v|_inf and largest |q_i|, at the pair's end t with the run's step h.
+  /// The pair's differences, shadow minus run, in q and in the velocity (max norms), the run's
+  /// speed |v|_inf and largest |q_i|, at the pair's end t with the run's step h.
   void sample(double t, double h, double dq, double dv, double speed, double q_norm);
 
-  // The global error estimate in q at the last step's time (max norm, the units of q); the steps
-  // since the last sample are counted at its rate.
+  /// The global error estimate in q at the last step's time (max norm, the units of q); the steps
+  /// since the last sample are counted at its rate.
   double estimate() const;
-  // The scale the estimate is judged against: the widest range any coordinate of q has swept
-  // (max - min over the samples' states and the last state), the extent of the motion in the
-  // units of q; and the largest |q_i| seen, for the round-off floor of a motion with no extent.
+  /// The scale the estimate is judged against: the widest range any coordinate of q has swept
+  /// (max - min over the samples' states and the last state), the extent of the motion in the
+  /// units of q; and the largest |q_i| seen, for the round-off floor of a motion with no extent.
+  ///@{
   double extent() const;
   double largest_coordinate() const;
-  // The largest local error per step seen (q part), and the number of samples taken.
+  ///@}
+  /// The largest local error per step seen (q part), and the number of samples taken.
+  ///@{
   double local_max() const { return local_max_; }
   long samples() const { return samples_; }
-  long failed_samples() const { return failed_; }
-  // Samples outside step doubling's asymptotic regime (velocities of the step of 2h and the two
-  // of h differing by more than 1 % of the speed, and the next sample a hundred times quieter: a
-  // transient faster than the step), counted whole; and the time of the first. Their error falls
-  // more slowly than h^p.
+  ///@}
+  long failed_samples() const { return failed_; }  ///< shadow steps of 2h that failed (failed())
+  /// Samples outside step doubling's asymptotic regime (velocities of the step of 2h and the two
+  /// of h differing by more than 1 % of the speed, and the next sample a hundred times quieter: a
+  /// transient faster than the step), counted whole; and the time of the first. Their error falls
+  /// more slowly than h^p.
+  ///@{
   long transient_samples() const { return transients_; }
   double first_transient() const { return first_transient_t_; }
-  // Samples whose velocities differed by more than 1 % of the speed: outside step doubling's (and
-  // Richardson's) asymptotic regime, transient or not.
+  ///@}
+  /// Samples whose velocities differed by more than 1 % of the speed: outside step doubling's (and
+  /// Richardson's) asymptotic regime, transient or not.
   long fast_samples() const { return fast_; }
-  // "t = 1.23: gap-not-converged: ..." for the first shadow step of 2h that failed.
+  /// "t = 1.23: gap-not-converged: ..." for the first shadow step of 2h that failed.
   const std::string& first_failure() const { return first_failure_; }
 
-  // Checkpoints (archive.hpp): every field; after load(), rebind() to the run's configuration
-  // (what stepped() would have seen last).
+  /// Checkpoints (archive.hpp): every field; after load(), rebind() to the run's configuration
+  /// (what stepped() would have seen last).
+  ///@{
   void save(OutArchive& a) const;
   void load(InArchive& a);
   void rebind(ConstVecRef q) { last_q_ = q.data(); }
+  ///@}
 
  private:
   int every_;
@@ -127,30 +149,38 @@ class DoublingEstimate {
   std::string first_failure_;
 };
 
-// The sampled step doubling of the reflection step (orders 2, 4, 6; a composed step counts as
-// one step of H). Owns a second Workspace and State, sized once: no allocation after the
-// constructor. The shadow never changes the run's state or workspace.
+/// The sampled step doubling of the reflection step (orders 2, 4, 6; a composed step counts as
+/// one step of H). Owns a second Workspace and State, sized once: no allocation after the
+/// constructor. The shadow never changes the run's state or workspace.
 class AccuracyWatch {
  public:
+  /// Watches a run of `model` with these step options, sampling at most every `every` steps
+  /// (DoublingEstimate); the shadow's workspace is built with `workspace`. The model must
+  /// outlive the watch.
   AccuracyWatch(const Model& model, const WorkspaceOptions& workspace, const RattleOptions& options, int every);
   AccuracyWatch(const Model&& model, const WorkspaceOptions&, const RattleOptions&, int) = delete;
 
-  // Call before each step of the run, with the state it starts from, and after it with the new
-  // state. Never throws; a shadow step that fails is counted (failed_samples(), first_failure()).
+  /// Call before each step of the run, with the state it starts from, and after it with the new
+  /// state. Never throws; a shadow step that fails is counted (failed_samples(), first_failure()).
+  ///@{
   void before_step(const State& s) {
     if (estimate_.due()) start_shadow(s);
   }
   void after_step(const State& s) {
     if (estimate_.stepped(s.t, s.q)) finish_shadow(s);
   }
+  ///@}
 
+  /// The estimate so far and its counters.
   const DoublingEstimate& estimate() const { return estimate_; }
 
-  // Checkpoints: the estimate and the shadow's state (a sample may be under way); after load(),
-  // rebind() to the run's state.
+  /// Checkpoints: the estimate and the shadow's state (a sample may be under way); after load(),
+  /// rebind() to the run's state.
+  ///@{
   void save(OutArchive& a) const;
   void load(InArchive& a);
   void rebind(const State& s) { estimate_.rebind(s.q); }
+  ///@}
 
  private:
   void start_shadow(const State& s);

@@ -1,16 +1,18 @@
 #pragma once
-// One call at a time on a workspace. Every entry point that writes a workspace (step, the
-// restarts, the starts, diagnose, dla_step, implicit_step, ...) takes its flag for the whole
-// call; a second caller finds it taken and is refused without touching the workspace: a second
-// thread, or a model callback that re-enters the call running it. Steps then return
-// Status::WorkspaceBusy, set-up calls throw std::invalid_argument("workspace-busy: ...").
-// The refused call writes no message (the workspace's message belongs to the running call).
+/// @file
+/// One call at a time on a workspace. Every entry point that writes a workspace (step, the
+/// restarts, the starts, diagnose, dla_step, implicit_step, ...) takes its flag for the whole
+/// call; a second caller finds it taken and is refused without touching the workspace: a second
+/// thread, or a model callback that re-enters the call running it. Steps then return
+/// Status::WorkspaceBusy, set-up calls throw std::invalid_argument("workspace-busy: ...").
+/// The refused call writes no message (the workspace's message belongs to the running call).
 #include <nonholo/status.hpp>
 
 #include <atomic>
 
 namespace nonholo {
 
+/// The flag a workspace's entry points take (see busy_flag.hpp); only a BusyEntry takes it.
 class BusyFlag {
  public:
   BusyFlag() = default;
@@ -22,10 +24,11 @@ class BusyFlag {
   std::atomic<bool> taken_{false};
 };
 
-// Takes the flag for its scope if it is free (held() says whether it did) and gives it back on
-// every exit path. One uncontended atomic exchange and one store.
+/// Takes the flag for its scope if it is free (held() says whether it did) and gives it back on
+/// every exit path. One uncontended atomic exchange and one store.
 class BusyEntry {
  public:
+  /// Takes `flag` unless another entry holds it.
   explicit BusyEntry(BusyFlag& flag) noexcept
       : flag_(flag.taken_.exchange(true, std::memory_order_acquire) ? nullptr : &flag) {}
   ~BusyEntry() {
@@ -33,20 +36,20 @@ class BusyEntry {
   }
   BusyEntry(const BusyEntry&) = delete;
   BusyEntry& operator=(const BusyEntry&) = delete;
-  bool held() const { return flag_ != nullptr; }
+  bool held() const { return flag_ != nullptr; }  ///< whether this entry took the flag
 
  private:
   BusyFlag* flag_;
 };
 
-// body() with the flag held, or Status::WorkspaceBusy without running it.
+/// body() with the flag held, or Status::WorkspaceBusy without running it.
 template <class Body>
 Status with_flag(BusyFlag& flag, Body&& body) {
   const BusyEntry entry(flag);
   return entry.held() ? body() : Status::WorkspaceBusy;
 }
 
-// For the set-up calls: throws std::invalid_argument "workspace-busy: <call>: ..." unless held.
+/// For the set-up calls: throws std::invalid_argument "workspace-busy: <call>: ..." unless held.
 void require_held(const BusyEntry& entry, const char* call);
 
 }  // namespace nonholo

@@ -1,14 +1,15 @@
 #pragma once
-// The immutable description of a nonholonomic system: bodies with constant SPD mass
-// blocks (a block-diagonal metric M), constraint one-forms mu(q) with a fixed sparsity
-// pattern, potential, external forces and momentum maps. Build one with ModelBuilder;
-// share it by const& across threads (its callbacks must be thread-safe).
-//
-// Sizes: the configuration q has num_configuration() = n_q entries, everything in momentum
-// space (velocities, momenta p, forces, the columns of mu, M, a gradient of V) has
-// num_velocities() = n_v. They differ only with 3-D rigid bodies (nonholo/rigid_body.hpp:
-// a quaternion of 4 entries against an angular velocity of 3); for planar and general
-// bodies a coordinate and its velocity share their index.
+/// @file
+/// The immutable description of a nonholonomic system: bodies with constant SPD mass
+/// blocks (a block-diagonal metric M), constraint one-forms mu(q) with a fixed sparsity
+/// pattern, potential, external forces and momentum maps. Build one with ModelBuilder;
+/// share it by const& across threads (its callbacks must be thread-safe).
+///
+/// Sizes: the configuration q has num_configuration() = n_q entries, everything in momentum
+/// space (velocities, momenta p, forces, the columns of mu, M, a gradient of V) has
+/// num_velocities() = n_v. They differ only with 3-D rigid bodies (nonholo/rigid_body.hpp:
+/// a quaternion of 4 entries against an angular velocity of 3); for planar and general
+/// bodies a coordinate and its velocity share their index.
 #include <nonholo/sparse/block_diagonal.hpp>
 #include <nonholo/sparse/gram_assembler.hpp>
 #include <nonholo/sparse/patterns.hpp>
@@ -20,128 +21,158 @@
 #include <string>
 #include <vector>
 
+/// The library: models (ModelBuilder, Model), the reflection integrator (step()) with its
+/// options, starts, restarts and diagnostics, the baselines (dla_step(), implicit_step()) and
+/// their workspaces. The factorisations of C are in nonholo::sparse, the reference ODE
+/// integrators in nonholo::reference, the scenes and the command-line tool in
+/// nonholo::scenarios.
 namespace nonholo {
 namespace detail {
 struct ElementSet;  // core/src/element_set.hpp
 }
 
-//   General  any coordinates with a constant SPD mass block (ModelBuilder::add_body);
-//   Planar   (x, y, theta) of the centre of mass, M = diag(m, m, I) (add_planar_body);
-//   Rigid    a 3-D rigid body: quaternion and centre in R^d (add_rigid_body).
+/// @enum BodyKind
+/// What a body's coordinates are.
+/// @var BodyKind::General
+///   any coordinates with a constant SPD mass block (ModelBuilder::add_body);
+/// @var BodyKind::Planar
+///   (x, y, theta) of the centre of mass, M = diag(m, m, I) (add_planar_body);
+/// @var BodyKind::Rigid
+///   a 3-D rigid body: quaternion and centre in R^d (add_rigid_body).
 enum class BodyKind : unsigned char { General, Planar, Rigid };
 
+/// Where a body's entries are in q and in the velocity-space vectors (Model::body).
 struct Body {
-  int offset = 0;  // first velocity coordinate of the body (its first column of mu, entry of p)
-  int size = 0;    // number of velocity coordinates
-  int q_offset = 0;  // first configuration entry (offset unless a rigid body comes before)
-  int q_size = 0;    // number of configuration entries (size + 1 for a rigid body)
-  BodyKind kind = BodyKind::General;
-  int translation = 0;  // rigid bodies: d, the dimension of the centre's motion (0, 2, 3)
+  int offset = 0;  ///< first velocity coordinate of the body (its first column of mu, entry of p)
+  int size = 0;    ///< number of velocity coordinates
+  int q_offset = 0;  ///< first configuration entry (offset unless a rigid body comes before)
+  int q_size = 0;    ///< number of configuration entries (size + 1 for a rigid body)
+  BodyKind kind = BodyKind::General;  ///< what its coordinates are
+  int translation = 0;  ///< rigid bodies: d, the dimension of the centre's motion (0, 2, 3)
 };
 
-// A rigid body as the step sees it: where its entries are, its inertia and mass.
+/// A rigid body as the step sees it: where its entries are, its inertia and mass.
 struct RigidBlock {
-  int body = 0;
-  int q = 0;  // first configuration entry: the quaternion (w, x, y, z), then the centre
-  int v = 0;  // first velocity entry: Omega (body frame), then the centre's velocity
-  int translation = 0;
-  double mass = 1.0;
-  Eigen::Matrix3d inertia, inverse_inertia;  // central inertia in the body frame
-  bool isotropic = false;  // inertia = J Id exactly: the Legendre transforms have closed forms
+  int body = 0;  ///< its index among the model's bodies
+  int q = 0;  ///< first configuration entry: the quaternion (w, x, y, z), then the centre
+  int v = 0;  ///< first velocity entry: Omega (body frame), then the centre's velocity
+  int translation = 0;  ///< d, the dimension of the centre's motion (0, 2, 3)
+  double mass = 1.0;  ///< m
+  /// Central inertia in the body frame, and its inverse.
+  ///@{
+  Eigen::Matrix3d inertia, inverse_inertia;
+  ///@}
+  bool isotropic = false;  ///< inertia = J Id exactly: the Legendre transforms have closed forms
 };
 
-// J(q, p) with a name. With a generator (a horizontal symmetry declared through
-// ModelBuilder::symmetry), J = <xi(q), p> and the restarts read xi directly instead of probing J.
+/// J(q, p) with a name. With a generator (a horizontal symmetry declared through
+/// ModelBuilder::symmetry), J = <xi(q), p> and the restarts read xi directly instead of probing J.
 struct NamedMomentumMap {
-  std::string name;
-  MomentumMap map;
-  SymmetryGenerator generator;  // empty unless declared as a symmetry
+  std::string name;  ///< as declared (ModelBuilder::momentum_map, ModelBuilder::symmetry)
+  MomentumMap map;   ///< J(q, p)
+  SymmetryGenerator generator;  ///< empty unless declared as a symmetry
 };
 
+/// A nonholonomic system, immutable once built (ModelBuilder::build). See model.hpp for the
+/// sizes n_q and n_v.
 class Model {
  public:
-  // n_v: the velocity count (the size of p, of forces and of a row of mu).
+  /// n_v: the velocity count (the size of p, of forces and of a row of mu).
   int num_velocities() const { return mass_.size(); }
-  // n_q: the size of the configuration q (n_v plus one per rigid body).
+  /// n_q: the size of the configuration q (n_v plus one per rigid body).
   int num_configuration() const { return num_configuration_; }
-  // The velocity count n_v, under its older name (every body was planar then, n_q = n_v).
+  /// The velocity count n_v, under its older name (every body was planar then, n_q = n_v).
   int num_coordinates() const { return num_velocities(); }
-  int num_bodies() const { return static_cast<int>(bodies_.size()); }
-  int num_one_forms() const { return pattern_.rows; }
-  int num_one_form_values() const { return pattern_.nnz(); }
-  const Body& body(int b) const { return bodies_[b]; }
-  // Names of the n_q configuration entries (x, y, theta; qw0, qx0, ..., x0, y0) ...
+  int num_bodies() const { return static_cast<int>(bodies_.size()); }  ///< bodies, in the order added
+  int num_one_forms() const { return pattern_.rows; }  ///< m: the rows of mu (one-forms and holonomic rows)
+  int num_one_form_values() const { return pattern_.nnz(); }  ///< nnz(mu): the values one_form_values() fills
+  const Body& body(int b) const { return bodies_[b]; }  ///< body b's place in q and in the velocities
+  /// Names of the n_q configuration entries (x, y, theta; qw0, qx0, ..., x0, y0) ...
   const std::vector<std::string>& coordinate_names() const { return names_; }
-  // ... and of the n_v velocity entries (the same names for planar and general bodies; wx0,
-  // wy0, wz0, vx0, vy0 for a rigid body): messages about a column of mu name these.
+  /// ... and of the n_v velocity entries (the same names for planar and general bodies; wx0,
+  /// wy0, wz0, vx0, vy0 for a rigid body): messages about a column of mu name these.
   const std::vector<std::string>& velocity_names() const { return velocity_names_.empty() ? names_ : velocity_names_; }
 
-  // 3-D rigid bodies (nonholo/rigid_body.hpp), in body order.
+  /// 3-D rigid bodies (nonholo/rigid_body.hpp), in body order.
+  ///@{
   bool has_rigid_bodies() const { return !rigid_.empty(); }
   const std::vector<RigidBlock>& rigid_bodies() const { return rigid_; }
-  // out = q moved along the velocity-space displacement delta (n_v entries): flat
-  // coordinates add delta, a rigid body's orientation becomes R exp(hat(delta_Omega)) (a
-  // body-frame rotation, renormalised). For q - h v on flat models, and wherever a model
-  // with rigid bodies must move q along a velocity. out may alias q.
+  ///@}
+  /// out = q moved along the velocity-space displacement delta (n_v entries): flat
+  /// coordinates add delta, a rigid body's orientation becomes R exp(hat(delta_Omega)) (a
+  /// body-frame rotation, renormalised). For q - h v on flat models, and wherever a model
+  /// with rigid bodies must move q along a velocity. out may alias q.
   void retract(ConstVecRef q, ConstVecRef delta, VecRef out) const;
-  // The label given to one-form row r (ModelBuilder::add_one_form), "" when none: messages
-  // about a row of mu or of C name it, so that a scene file's error points at its element.
+  /// The label given to one-form row r (ModelBuilder::add_one_form), "" when none: messages
+  /// about a row of mu or of C name it, so that a scene file's error points at its element.
   const std::string& row_label(int r) const;
-  // "one-form row r" followed by " (label)" when the row has one; for set-up messages.
+  /// "one-form row r" followed by " (label)" when the row has one; for set-up messages.
   std::string describe_row(int r) const;
 
-  const sparse::BlockDiagonal& mass() const { return mass_; }
-  const sparse::BlockDiagonal& inverse_mass() const { return inverse_mass_; }
+  const sparse::BlockDiagonal& mass() const { return mass_; }  ///< M, the bodies' mass blocks
+  const sparse::BlockDiagonal& inverse_mass() const { return inverse_mass_; }  ///< M^-1
+  /// The rows of mu and their columns (fixed; the values come from one_form_values()).
   const sparse::RowPattern& one_form_pattern() const { return pattern_; }
-  // C = mu M^-1 mu^T: its fixed pattern and the index map that fills it. A chain of
-  // elements (is_chain) factorises C from its elements' rows and never needs them, so for it
-  // they are built at the first call (thread-safe; about 0.5 s and 250 MB for a million
-  // bodies), e.g. by a Workspace that forces CHOLMOD.
+  /// C = mu M^-1 mu^T: its fixed pattern and the index map that fills it. A chain of
+  /// elements (is_chain) factorises C from its elements' rows and never needs them, so for it
+  /// they are built at the first call (thread-safe; about 0.5 s and 250 MB for a million
+  /// bodies), e.g. by a Workspace that forces CHOLMOD.
   const sparse::GramAssembler& gram() const;
 
+  /// The values of mu(q) in pattern order (nnz entries; see OneFormValues).
   void one_form_values(ConstVecRef q, VecRef values) const { values_(q, values); }
+  /// Whether the model gives its bias (d/dt mu) qdot in closed form (ModelBuilder::one_form_bias).
   bool has_analytic_bias() const { return static_cast<bool>(bias_); }
-  // Only when has_analytic_bias(); see nonholo/dynamics.hpp for the general entry point.
+  /// Only when has_analytic_bias(); see nonholo/dynamics.hpp for the general entry point.
   void analytic_bias(ConstVecRef q, ConstVecRef qdot, VecRef bias) const { bias_(q, qdot, bias); }
 
-  bool has_potential() const { return static_cast<bool>(potential_); }
-  double potential(ConstVecRef q) const { return potential_ ? potential_(q) : 0.0; }
-  bool has_external_force() const { return static_cast<bool>(force_); }
-  // F(t, q) alone (only when has_external_force()).
+  bool has_potential() const { return static_cast<bool>(potential_); }  ///< whether V is given
+  double potential(ConstVecRef q) const { return potential_ ? potential_(q) : 0.0; }  ///< V(q); 0 without one
+  bool has_external_force() const { return static_cast<bool>(force_); }  ///< whether F(t, q) is given
+  /// F(t, q) alone (only when has_external_force()).
   void external_force(double t, ConstVecRef q, VecRef force) const { force_(t, q, force); }
-  // Whether f = -grad V + F can be nonzero; when false the integrators skip it entirely.
+  /// Whether f = -grad V + F can be nonzero; when false the integrators skip it entirely.
   bool has_applied_force() const { return has_potential() || has_external_force(); }
-  // f = -grad V(q) + F(t, q). scratch: n entries, clobbered.
+  /// f = -grad V(q) + F(t, q). scratch: n entries, clobbered.
   void applied_force(double t, ConstVecRef q, VecRef f, VecRef scratch) const;
 
+  /// The momentum maps and symmetries, in declaration order (diagnostics.hpp evaluates them).
   const std::vector<NamedMomentumMap>& momentum_maps() const { return momentum_maps_; }
 
-  // A configuration-dependent metric replaces mass() (which then holds M(q0) only): the
-  // explicit integrators refuse such a model, the implicit general form (implicit.hpp) uses it.
+  /// A configuration-dependent metric replaces mass() (which then holds M(q0) only): the
+  /// explicit integrators refuse such a model, the implicit general form (implicit.hpp) uses it.
   bool has_configuration_metric() const { return static_cast<bool>(metric_); }
+  /// M(q), dense n x n (only when has_configuration_metric()).
   void metric(ConstVecRef q, MatRef m) const { metric_(q, m); }
+  /// dM/dq_i at q (only when has_configuration_metric()).
   void metric_derivative(ConstVecRef q, int i, MatRef dm) const { metric_derivative_(q, i, dm); }
 
-  // Holonomic constraints g(q) = 0 (hitches): the rows of mu that are their gradients, in
-  // declaration order, and the gaps g(q) (one per such row). Integrators may treat them as
-  // plain one-forms or enforce g = 0 at position level (see RattleOptions::hitch). Call
-  // gap() only when num_holonomic() > 0.
+  /// Holonomic constraints g(q) = 0 (hitches): the rows of mu that are their gradients, in
+  /// declaration order, and the gaps g(q) (one per such row). Integrators may treat them as
+  /// plain one-forms or enforce g = 0 at position level (see RattleOptions::hitch). Call
+  /// gap() only when num_holonomic() > 0.
+  ///@{
   int num_holonomic() const { return static_cast<int>(holonomic_rows_.size()); }
   const std::vector<int>& holonomic_rows() const { return holonomic_rows_; }
   void gap(ConstVecRef q, VecRef g) const { gap_(q, g); }
+  ///@}
 
-  // Built from local constraint elements (nonholo/elements.hpp)? Then its one-form values,
-  // bias, gaps, potential and forces are the elements' own, and element_set() describes them
-  // (for the integrators; its type is internal).
+  /// Built from local constraint elements (nonholo/elements.hpp)? Then its one-form values,
+  /// bias, gaps, potential and forces are the elements' own, and element_set() describes them
+  /// (for the integrators; its type is internal).
+  ///@{
   bool has_elements() const { return static_cast<bool>(elements_); }
   const detail::ElementSet* element_set() const { return elements_.get(); }
-  // Whether the explicit step can stream this model body by body (element_set.hpp's chain
-  // layout): the banded backend is then chosen by Backend::Auto.
+  ///@}
+  /// Whether the explicit step can stream this model body by body (element_set.hpp's chain
+  /// layout): the banded backend is then chosen by Backend::Auto.
   bool is_chain() const;
 
-  // Sparse products with the one-form values (nnz entries, pattern order).
-  void mu_times(const double* mu, const double* x, double* y) const;            // y = mu x
-  void mu_transpose_times(const double* mu, const double* lambda, double* g) const;  // g = mu^T lambda
+  /// Sparse products with the one-form values (nnz entries, pattern order).
+  ///@{
+  void mu_times(const double* mu, const double* x, double* y) const;            ///< y = mu x
+  void mu_transpose_times(const double* mu, const double* lambda, double* g) const;  ///< g = mu^T lambda
+  ///@}
 
  private:
   friend class ModelBuilder;

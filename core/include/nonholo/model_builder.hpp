@@ -1,6 +1,7 @@
 #pragma once
-// Validating construction of a Model. Every mistake is reported by a std::invalid_argument
-// whose message names the body, row or column and the offending value.
+/// @file
+/// Validating construction of a Model. Every mistake is reported by a std::invalid_argument
+/// whose message names the body, row or column and the offending value.
 #include <nonholo/elements.hpp>
 #include <nonholo/model.hpp>
 #include <nonholo/rigid_body.hpp>
@@ -14,90 +15,105 @@
 
 namespace nonholo {
 
+/// Builds a Model: add bodies, then constraint rows or elements, then the callbacks, then
+/// build().
 class ModelBuilder {
  public:
-  // A body with one coordinate per name and a constant SPD mass block (names.size() square).
-  // Returns the body index. Throws on a non-square, mismatched, non-finite, non-symmetric or
-  // non-positive-definite block.
+  /// A body with one coordinate per name and a constant SPD mass block (names.size() square).
+  /// Returns the body index. Throws on a non-square, mismatched, non-finite, non-symmetric or
+  /// non-positive-definite block.
   int add_body(const std::vector<std::string>& coordinate_names, const Eigen::MatrixXd& mass_block);
-  // A planar rigid body in centre-of-mass coordinates (x, y, theta): M = diag(m, m, I).
-  // Throws unless mass and inertia are finite and positive.
+  /// A planar rigid body in centre-of-mass coordinates (x, y, theta): M = diag(m, m, I).
+  /// Throws unless mass and inertia are finite and positive.
   int add_planar_body(const std::array<std::string, 3>& coordinate_names, double mass, double inertia);
-  // A 3-D rigid body (nonholo/rigid_body.hpp): 4 + d configuration entries (quaternion, centre)
-  // and 3 + d velocity entries (Omega in the body frame, the centre's velocity), M =
-  // blockdiag(inertia, m Id). Throws unless the translation is 0, 2 or 3, the mass positive
-  // and finite, and the inertia finite, symmetric and positive definite (condition number at
-  // most 1e12, as add_body); the names follow RigidBody::name.
+  /// A 3-D rigid body (nonholo/rigid_body.hpp): 4 + d configuration entries (quaternion, centre)
+  /// and 3 + d velocity entries (Omega in the body frame, the centre's velocity), M =
+  /// blockdiag(inertia, m Id). Throws unless the translation is 0, 2 or 3, the mass positive
+  /// and finite, and the inertia finite, symmetric and positive definite (condition number at
+  /// most 1e12, as add_body); the names follow RigidBody::name.
   int add_rigid_body(const RigidBody& body);
 
-  // Optional: room for a model of this size, so that a million bodies are added without
-  // regrowing (and copying) the builder's arrays; the name table is sized once.
+  /// Optional: room for a model of this size, so that a million bodies are added without
+  /// regrowing (and copying) the builder's arrays; the name table is sized once.
   void reserve(int bodies, int coordinates, int rows, int values);
 
-  // A constraint row mu_a(q) qdot = 0 touching these coordinates (its sparsity pattern,
-  // fixed for ever). Returns the row index. Checked in build(): non-empty, no duplicates,
-  // every column in range. The optional label (say "constraints[3] (knife_edge on body 2)")
-  // is named by every message about this row: set-up errors and failed steps alike.
+  /// A constraint row mu_a(q) qdot = 0 touching these coordinates (its sparsity pattern,
+  /// fixed for ever). Returns the row index. Checked in build(): non-empty, no duplicates,
+  /// every column in range. The optional label (say "constraints[3] (knife_edge on body 2)")
+  /// is named by every message about this row: set-up errors and failed steps alike.
   int add_one_form(const std::vector<int>& columns, std::string label = "");
-  // A row that is the gradient of a holonomic constraint g_j(q) = 0 (a hitch component):
-  // added like add_one_form (its values come from one_form_values) and also recorded as
-  // holonomic; gap() gives g_j in the order of these calls.
+  /// A row that is the gradient of a holonomic constraint g_j(q) = 0 (a hitch component):
+  /// added like add_one_form (its values come from one_form_values) and also recorded as
+  /// holonomic; gap() gives g_j in the order of these calls.
   int add_holonomic_row(const std::vector<int>& columns, std::string label = "");
-  // Local constraint elements (nonholo/elements.hpp) on planar bodies (added with
-  // add_planar_body, or any body whose first three coordinates are x, y, theta and whose mass
-  // block is 3x3). Each adds its rows now, in call order, and evaluates them itself: a model
-  // whose rows all come from elements needs no one_form_values, bias or gap function, and
-  // its springs and thrusts make its potential and external force. Rows from add_one_form
-  // and element rows cannot be mixed in one model, nor springs with potential() or thrusts
-  // with external_force(). Throws at once for a body out of range, a non-planar body, a
-  // hitch of a body to itself, or a non-finite parameter; returns the first row's index.
-  // Add them body by body (knife edge of b, then the hitch b -> b+1) and the step streams
-  // the chain in one forward and one backward sweep (DESIGN.md section 7).
+  /// Local constraint elements (nonholo/elements.hpp) on planar bodies (added with
+  /// add_planar_body, or any body whose first three coordinates are x, y, theta and whose mass
+  /// block is 3x3). Each adds its rows now, in call order, and evaluates them itself: a model
+  /// whose rows all come from elements needs no one_form_values, bias or gap function, and
+  /// its springs and thrusts make its potential and external force. Rows from add_one_form
+  /// and element rows cannot be mixed in one model, nor springs with potential() or thrusts
+  /// with external_force(). Throws at once for a body out of range, a non-planar body, a
+  /// hitch of a body to itself, or a non-finite parameter; returns the first row's index.
+  /// Add them body by body (knife edge of b, then the hitch b -> b+1) and the step streams
+  /// the chain in one forward and one backward sweep (docs/design.md §7).
+  ///@{
   int add_knife_edge(const KnifeEdge& knife, std::string label = "");
   int add_hitch(const Hitch& hitch, std::string label = "");
   void add_torsional_spring(const TorsionalSpring& spring);
   void add_thrust(Thrust thrust);
-  // Elements on rigid bodies (elements.hpp). Each throws at once for a body out of range or
-  // not rigid, a translation the element cannot use, a zero or non-finite axis, a radius or
-  // length that is not positive and finite; the constraints return their first row's index.
+  ///@}
+  /// Elements on rigid bodies (elements.hpp). Each throws at once for a body out of range or
+  /// not rigid, a translation the element cannot use, a zero or non-finite axis, a radius or
+  /// length that is not positive and finite; the constraints return their first row's index.
+  ///@{
   int add_body_axis_constraint(const BodyAxisConstraint& constraint, std::string label = "");
   int add_space_axis_constraint(const SpaceAxisConstraint& constraint, std::string label = "");
   int add_rolling_ball(const RollingBall& ball, std::string label = "");
   int add_rolling_disk(const RollingDisk& disk, std::string label = "");
   int add_rod(const Rod& rod, std::string label = "");
-  // Uniform gravity g along -e3 on every rigid body that moves freely in 3-D (translation 3):
-  // a constant external force -m g e3 on its centre (so the discrete work-energy identity of
-  // the step holds to round-off; the energy m g z is the work's negative). Once per model.
+  ///@}
+  /// Uniform gravity g along -e3 on every rigid body that moves freely in 3-D (translation 3):
+  /// a constant external force -m g e3 on its centre (so the discrete work-energy identity of
+  /// the step holds to round-off; the energy m g z is the work's negative). Once per model.
   void add_gravity(double g);
+  /// A torque on a rigid body (elements.hpp); throws for a body out of range, not rigid, or an
+  /// empty function.
   void add_body_torque(BodyTorque torque);
+  /// A force on a rigid body's centre (elements.hpp); throws also for a body whose centre is
+  /// fixed (translation 0).
   void add_body_force(BodyForce force);
 
-  // The gaps g(q), required when there are holonomic rows.
+  /// The gaps g(q), required when there are holonomic rows.
   ModelBuilder& gap(ConstraintGap gap);
-  // Fills the values of all rows at q (required when there are rows).
+  /// Fills the values of all rows at q (required when there are rows).
   ModelBuilder& one_form_values(OneFormValues values);
-  // The bias (d/dt mu) qdot. Optional: without it, dynamics.hpp falls back to a central
-  // difference of the values along qdot (about 1e-10 relative accuracy).
+  /// The bias (d/dt mu) qdot. Optional: without it, dynamics.hpp falls back to a central
+  /// difference of the values along qdot (about 1e-10 relative accuracy).
   ModelBuilder& one_form_bias(OneFormBias bias);
+  /// The potential V(q) and its gradient (both or neither).
   ModelBuilder& potential(Potential value, PotentialGradient gradient);
+  /// The external forces F(t, q) (types.hpp).
   ModelBuilder& external_force(ExternalForce force);
+  /// A momentum map J(q, p) to report, under a unique non-empty name.
   ModelBuilder& momentum_map(const std::string& name, MomentumMap map);
-  // A horizontal symmetry by its generator xi(q) (n_v entries, in D(q) for every q; checked at
-  // the start): the momentum map J = <xi(q), p>, named `name`, which the restarts and the
-  // composed steps' energy projection keep exactly by scaling only the part of p~ that no such
-  // map sees. `value`, when given, is J itself computed directly (it must equal <xi(q), p>,
-  // checked at the start): a generator local to one body then costs O(1) to evaluate instead of
-  // n_v (a chain of N balls declares N spins). Without it J is evaluated through xi (no heap up
-  // to 256 velocities).
+  /// A horizontal symmetry by its generator xi(q) (n_v entries, in D(q) for every q; checked at
+  /// the start): the momentum map J = <xi(q), p>, named `name`, which the restarts and the
+  /// composed steps' energy projection keep exactly by scaling only the part of p~ that no such
+  /// map sees. `value`, when given, is J itself computed directly (it must equal <xi(q), p>,
+  /// checked at the start): a generator local to one body then costs O(1) to evaluate instead of
+  /// n_v (a chain of N balls declares N spins). Without it J is evaluated through xi (no heap up
+  /// to 256 velocities).
   ModelBuilder& symmetry(const std::string& name, SymmetryGenerator generator, MomentumMap value = {});
-  // M(q) and dM/dq_i over all coordinates (see Model::has_configuration_metric). The bodies'
-  // mass blocks should be M(q0): the set-up code and the diagnostics of q0 use them.
+  /// M(q) and dM/dq_i over all coordinates (see Model::has_configuration_metric). The bodies'
+  /// mass blocks should be M(q0): the set-up code and the diagnostics of q0 use them.
   ModelBuilder& configuration_metric(MetricValue value, MetricDerivative derivative);
 
-  // The model. On an rvalue (std::move(builder).build()) the builder's contents are moved
-  // into it rather than copied: a million-body chain is built in half the time and memory.
+  /// The model. On an rvalue (std::move(builder).build()) the builder's contents are moved
+  /// into it rather than copied: a million-body chain is built in half the time and memory.
+  ///@{
   Model build() const&;
   Model build() &&;
+  ///@}
 
  private:
   // The model being built: bodies, names, mass blocks and callbacks go straight in; build()

@@ -1,5 +1,6 @@
 #pragma once
-// Everything needed to build a model and integrate it.
+/// @file
+/// Everything needed to build a model and integrate it.
 #include <nonholo/batch.hpp>
 #include <nonholo/composition.hpp>
 #include <nonholo/diagnostics.hpp>

@@ -1,10 +1,11 @@
 #pragma once
-// Everything a thread needs to integrate one Model: every buffer sized once here, and its
-// own factorisation of C (for CHOLMOD, its own cholmod_common). One Workspace per thread;
-// the Model must outlive it. The buffers are scratch owned by the integrators. The entry
-// points take busy_flag() for each call: a second call while one runs (another thread, or a
-// model callback of the running step) is refused with Status::WorkspaceBusy (busy_flag.hpp).
-// The members below are the integrators' own and do not check it.
+/// @file
+/// Everything a thread needs to integrate one Model: every buffer sized once here, and its
+/// own factorisation of C (for CHOLMOD, its own cholmod_common). One Workspace per thread;
+/// the Model must outlive it. The buffers are scratch owned by the integrators. The entry
+/// points take busy_flag() for each call: a second call while one runs (another thread, or a
+/// model callback of the running step) is refused with Status::WorkspaceBusy (busy_flag.hpp).
+/// The members below are the integrators' own and do not check it.
 #include <nonholo/archive.hpp>
 #include <nonholo/busy_flag.hpp>
 #include <nonholo/model.hpp>
@@ -19,51 +20,58 @@
 
 namespace nonholo {
 
+/// How a Workspace is built.
 struct WorkspaceOptions {
-  // Auto picks by the pattern of C (sparse::resolve_backend), except that a chain of elements
-  // (Model::is_chain) always gets Banded: the step then streams it body by body.
+  /// The factorisation of C. Auto picks by the pattern of C (sparse::resolve_backend), except
+  /// that a chain of elements (Model::is_chain) always gets Banded: the step then streams it
+  /// body by body.
   sparse::Backend backend = sparse::Backend::Auto;
-  // Room to restore the state when a composed step (RattleOptions::order 4 or 6) fails in
-  // one of its substeps: four more state-sized vectors. Turn off for order-2-only use of a
-  // very large model; a composed step on such a workspace fails with MethodNotApplicable.
+  /// Room to restore the state when a composed step (RattleOptions::order 4 or 6) fails in
+  /// one of its substeps: four more state-sized vectors. Turn off for order-2-only use of a
+  /// very large model; a composed step on such a workspace fails with MethodNotApplicable.
   bool composed_steps = true;
-  // A second copy of mu for the midpoint DLA baseline (nonholo/dla.hpp): nnz(mu) values,
-  // 88 MB for a million-body chain. Turn off when only reflection steps run; DLA midpoint
-  // steps on such a workspace fail with MethodNotApplicable. (A model without its own bias
-  // gets the copy anyway: its bias by differences needs it.)
+  /// A second copy of mu for the midpoint DLA baseline (nonholo/dla.hpp): nnz(mu) values,
+  /// 88 MB for a million-body chain. Turn off when only reflection steps run; DLA midpoint
+  /// steps on such a workspace fail with MethodNotApplicable. (A model without its own bias
+  /// gets the copy anyway: its bias by differences needs it.)
   bool dla_steps = true;
 };
 
-// Cache-line aligned (and so padded): the workspaces of a batch's threads are written at every
-// step and must not share a cache line (measured: sharing one halved the 2-thread speed-up).
+/// One thread's buffers and factorisation for one Model (see workspace.hpp).
+/// Cache-line aligned (and so padded): the workspaces of a batch's threads are written at every
+/// step and must not share a cache line (measured: sharing one halved the 2-thread speed-up).
 class alignas(128) Workspace {
  public:
+  /// Sizes every buffer for `model` and builds the factorisation `options` asks for; `model`
+  /// must outlive the workspace.
   explicit Workspace(const Model& model, const WorkspaceOptions& options = {});
-  // The workspace keeps a pointer to the model: one built from a temporary would dangle.
+  /// The workspace keeps a pointer to the model: one built from a temporary would dangle.
   explicit Workspace(const Model&& model, const WorkspaceOptions& options = {}) = delete;
 
-  const Model& model() const { return *model_; }
-  // The factorisation in use (see sparse::Backend); "none" for a model without one-forms.
+  const Model& model() const { return *model_; }  ///< the model it was built for
+  /// The factorisation in use (see sparse::Backend); "none" for a model without one-forms.
+  ///@{
   sparse::Backend backend() const;
   const char* backend_name() const;
-  // Why the last failed call failed ("" if it did not).
+  ///@}
+  /// Why the last failed call failed ("" if it did not).
   const char* message() const { return message_.c_str(); }
-  // Held by the call that uses the workspace (busy_flag.hpp).
+  /// Held by the call that uses the workspace (busy_flag.hpp).
   BusyFlag& busy_flag() { return busy_; }
 
   // --- used by the integrators (nonholo/rattle.hpp, start.hpp, dynamics.hpp) --------------
-  // Evaluates mu at q into mu_values unless they already hold mu(q) (mu is a pure function
-  // of q, so the cache is keyed by the bits of q). NaN or Inf in mu is reported by the
-  // factorize() that follows (NonFiniteOneForms, naming the row and column).
+  /// Evaluates mu at q into mu_values unless they already hold mu(q) (mu is a pure function
+  /// of q, so the cache is keyed by the bits of q). NaN or Inf in mu is reported by the
+  /// factorize() that follows (NonFiniteOneForms, naming the row and column).
   Status evaluate_one_forms(ConstVecRef q);
-  // Assembles C from mu_values and factorises it.
+  /// Assembles C from mu_values and factorises it.
   Status factorize(double min_pivot_ratio);
-  // Makes the factorisation hold C(q): nothing to do when it already does (the step that
-  // arrived at q left it there), otherwise evaluate_one_forms(q) and factorize().
+  /// Makes the factorisation hold C(q): nothing to do when it already does (the step that
+  /// arrived at q left it there), otherwise evaluate_one_forms(q) and factorize().
   Status factorize_at(ConstVecRef q, double min_pivot_ratio);
-  // lambda = C^-1 rhs after factorize().
+  /// lambda = C^-1 rhs after factorize().
   Status solve(const double* rhs, double* lambda);
-  // Records the message and returns status: `return ws.fail(Status::..., "...", ...);`
+  /// Records the message and returns status: `return ws.fail(Status::..., "...", ...);`
   Status fail(Status status, const char* format, ...) __attribute__((format(printf, 3, 4))) {
     va_list args;
     va_start(args, format);
@@ -71,106 +79,133 @@ class alignas(128) Workspace {
     va_end(args);
     return status;
   }
-  void clear_message() { message_.clear(); }
+  void clear_message() { message_.clear(); }  ///< message() becomes ""
 
-  // The next configuration and a configuration scratch (n_q entries) ...
+  /// The next configuration and a configuration scratch (n_q entries) ...
+  ///@{
   Vector q_next, scratch_q;
-  // ... scratch vectors of size n_v (velocities, momenta, forces) ...
+  ///@}
+  /// ... scratch vectors of size n_v (velocities, momenta, forces) ...
+  ///@{
   Vector p_half, p_hat, p_next, velocity, applied, force_next, scratch_n, scratch_n2;
-  // ... with rigid bodies (empty otherwise): the momentum the drift carries to q_{k+1} (the
-  // rigid bodies' p_Omega turned by W^T; p_half itself on flat models), and the gyroscopic
-  // term M^-1 g (n_v) with its image mu M^-1 g (m) ...
+  ///@}
+  /// ... with rigid bodies (empty otherwise): the momentum the drift carries to q_{k+1} (the
+  /// rigid bodies' p_Omega turned by W^T; p_half itself on flat models), and the gyroscopic
+  /// term M^-1 g (n_v) with its image mu M^-1 g (m) ...
+  ///@{
   Vector p_arrive, gyroscopic, gyroscopic_m;
-  // ... of size nnz(mu), nnz(C) and m (one-form rows). c_values holds C only for the
-  // factorisations without an in-place path (it is empty with CHOLMOD and banded);
-  // scratch_nnz2 is empty for a model with an analytic bias.
+  ///@}
+  /// ... of size nnz(mu), nnz(C) and m (one-form rows). c_values holds C only for the
+  /// factorisations without an in-place path (it is empty with CHOLMOD and banded);
+  /// scratch_nnz2 is empty for a model with an analytic bias.
+  ///@{
   Vector mu_values, c_values, rhs, lambda, scratch_m, scratch_nnz, scratch_nnz2;
-  // ... and of size num_holonomic() (hitch gaps g(q)).
+  ///@}
+  /// ... and of size num_holonomic() (hitch gaps g(q)).
   Vector gap;
-  // Position-level iterations taken by the last step in holonomic mode. Their corrections
-  // add (h/2) G to p_half (G = mu_k^T dlambda); lambda~_{k+1} then settles at lambda_s - x,
-  // not at lambda_s, with x = C^-1 mu M^-1 G/2 at q_{k+1} (m entries; restart_internal.hpp's
-  // gap_offset_multiplier computes it when the period-2 mode is measured or restarted).
+  /// Position-level iterations taken by the last step in holonomic mode. Their corrections
+  /// add (h/2) G to p_half (G = mu_k^T dlambda); lambda~_{k+1} then settles at lambda_s - x,
+  /// not at lambda_s, with x = C^-1 mu M^-1 G/2 at q_{k+1} (m entries; restart_internal.hpp's
+  /// gap_offset_multiplier computes it when the period-2 mode is measured or restarted).
+  ///@{
   int gap_iterations = 0;
   Vector offset_multiplier;
+  ///@}
 
-  // The period-2 mode (restart.hpp). lambda_s: the continuous multiplier lambda_s(q, p~) last
-  // computed (m); lambda_f: its part due to the applied force, -C^-1 mu M^-1 f (m, only for
-  // models with an applied force). With momentum maps, the restart also keeps their directions
-  // (map_directions, n x maps) and the split of p~ (map_probe, map_rest, map_linear: n;
-  // map_lambda0, map_lambda1: m; map_values: 2 maps, the maps' values J_j, then their scales).
+  /// The period-2 mode (restart.hpp). lambda_s: the continuous multiplier lambda_s(q, p~) last
+  /// computed (m); lambda_f: its part due to the applied force, -C^-1 mu M^-1 f (m, only for
+  /// models with an applied force). With momentum maps, the restart also keeps their directions
+  /// (map_directions, n x maps) and the split of p~ (map_probe, map_rest, map_linear: n;
+  /// map_lambda0, map_lambda1: m; map_values: 2 maps, the maps' values J_j, then their scales).
+  ///@{
   Vector lambda_s, lambda_f;
   Eigen::MatrixXd map_directions;
   Vector map_probe, map_rest, map_linear, map_lambda0, map_lambda1, map_values;
-  // Where each direction can be nonzero: entries [map_span[2j], map_span[2j+1]), whole blocks of
-  // M (a ball's spin touches its own body only: disjoint directions cost nothing to orthogonalise).
+  ///@}
+  /// Where each direction can be nonzero: entries [map_span[2j], map_span[2j+1]), whole blocks of
+  /// M (a ball's spin touches its own body only: disjoint directions cost nothing to orthogonalise).
   std::vector<int> map_span;
-  // What the last successful step found: the parasitic amplitude at its end (NaN when it was
-  // not measured) and whether it restarted the multipliers.
+  /// What the last successful step found: the parasitic amplitude at its end (NaN when it was
+  /// not measured) and whether it restarted the multipliers.
+  ///@{
   double parasitic = 0.0;
   bool restarted = false;
-  // Composed steps: the state at the step's start, restored when a substep fails
-  // (WorkspaceOptions::composed_steps; empty otherwise).
+  ///@}
+  /// Composed steps: the state at the step's start, restored when a substep fails
+  /// (WorkspaceOptions::composed_steps; empty otherwise).
+  ///@{
   Vector saved_q, saved_p, saved_lambda, saved_force;
-  // Numeric factorisations of C so far (the unit of cost the methods are compared in).
+  ///@}
+  /// Numeric factorisations of C so far (the unit of cost the methods are compared in).
   long factorizations = 0;
-  // Rigid bodies: the most Newton iterations a discrete Legendre transform has taken so far
-  // (0 for closed forms; reset it to watch a stretch of steps).
+  /// Rigid bodies: the most Newton iterations a discrete Legendre transform has taken so far
+  /// (0 for closed forms; reset it to watch a stretch of steps).
   int legendre_iterations = 0;
-  // The rotation Lagrangian of the last options step() accepted (MoserVeselov before any):
-  // what diagnose() and the restarts use to step back to q_{k-1} on models with rigid bodies.
+  /// The rotation Lagrangian of the last options step() accepted (MoserVeselov before any):
+  /// what diagnose() and the restarts use to step back to q_{k-1} on models with rigid bodies.
   RotationLagrangian rotation() const { return options_known_ ? options_.rotation : RotationLagrangian::MoserVeselov; }
-  // Whether step() has found these options valid on this workspace before (it then skips its
-  // checks: on a small model they cost a tenth of a step), and remembering them.
+  /// Whether step() has found these options valid on this workspace before (it then skips its
+  /// checks: on a small model they cost a tenth of a step), and remembering them.
+  ///@{
   bool options_checked(const RattleOptions& o) const { return options_known_ && same_options(o, options_); }
   void remember_options(const RattleOptions& o) {
     options_ = o;
     options_known_ = true;
   }
+  ///@}
 
   // --- the fused chain step (core/src/chain_sweep.cpp) -----------------------------------
-  // Whether step() streams this model body by body: a chain of elements on the banded backend.
+  /// Whether step() streams this model body by body: a chain of elements on the banded backend.
   bool fused() const { return banded_ != nullptr && chain_; }
-  sparse::BandedLdlt* banded() { return banded_; }
-  // sin and cos of each body's angle at the last fused step's q (2 per body). In holonomic mode
-  // on the common chain (ElementSet::hitched_chain) the step swaps it with chain_sincos_prev,
-  // which then holds q_k's: the corrections build mu(q_k)'s rows from them (16 bytes a body
-  // read, not mu's 88, and no mu written by the sweep).
+  sparse::BandedLdlt* banded() { return banded_; }  ///< the factorisation when it is banded, else nullptr
+  /// sin and cos of each body's angle at the last fused step's q (2 per body). In holonomic mode
+  /// on the common chain (ElementSet::hitched_chain) the step swaps it with chain_sincos_prev,
+  /// which then holds q_k's: the corrections build mu(q_k)'s rows from them (16 bytes a body
+  /// read, not mu's 88, and no mu written by the sweep).
+  ///@{
   Vector chain_sincos, chain_sincos_prev;
-  // The diagnostics of the state the last fused step produced, computed by its sweeps;
-  // `q` is that state's q buffer (nullptr when invalid). Read through diagnose_step().
+  ///@}
+  /// The diagnostics of the state the last fused step produced, computed by its sweeps;
+  /// `q` is that state's q buffer (nullptr when invalid). Read through diagnose_step().
   struct StepDiagnostics {
-    const double* q = nullptr;
-    long steps = -1;
+    const double* q = nullptr;  ///< the q buffer of the state they belong to (nullptr: none)
+    long steps = -1;  ///< that state's step count
+    /// As in Diagnostics.
+    ///@{
     double energy = 0.0, energy_post = 0.0, residual = 0.0, gap = 0.0;
-  } step_diagnostics;
-  // The sweep writes mu(q) and q itself: it forgets the cached one-forms first, hands out the
-  // key buffer, and declares both valid (with C(q) factorised) when it succeeds.
-  // Without `mu_written` the values are filled from chain_sincos when first asked for
-  // (evaluate_one_forms): a one-form step does not need them, only a restart or diagnose().
+    ///@}
+  } step_diagnostics;  ///< the last fused step's (see StepDiagnostics)
+  /// The sweep writes mu(q) and q itself: it forgets the cached one-forms first, hands out the
+  /// key buffer, and declares both valid (with C(q) factorised) when it succeeds.
+  /// Without `mu_written` the values are filled from chain_sincos when first asked for
+  /// (evaluate_one_forms): a one-form step does not need them, only a restart or diagnose().
+  ///@{
   void forget_one_forms() { key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = false; }
   double* one_form_key() { return mu_q_.data(); }
-  void forget_sincos() { sincos_valid_ = false; }  // chain_sincos reused for another q
+  void forget_sincos() { sincos_valid_ = false; }  ///< chain_sincos reused for another q
   void one_forms_factorized_at_key(bool mu_written) {
     key_valid_ = factor_valid_ = sincos_valid_ = true;
     mu_valid_ = mu_written;
     ++factorizations;
   }
-  // Checkpoints (archive.hpp): what a step leaves for the next one, the one-forms, C(q)
-  // factorised and a chain's sines and cosines at the state's q, so that a resumed run's first
-  // step does what the uninterrupted run's did, bit for bit (a fresh factorisation of the same C
-  // is not bitwise the one a fused sweep builds row by row). Backends without exposed numbers
-  // (dense, CHOLMOD) factorise again at load, uncounted: theirs is the code the step uses.
-  // load_held throws std::runtime_error on bytes of another model or a factorisation that fails.
+  ///@}
+  /// Checkpoints (archive.hpp): what a step leaves for the next one, the one-forms, C(q)
+  /// factorised and a chain's sines and cosines at the state's q, so that a resumed run's first
+  /// step does what the uninterrupted run's did, bit for bit (a fresh factorisation of the same C
+  /// is not bitwise the one a fused sweep builds row by row). Backends without exposed numbers
+  /// (dense, CHOLMOD) factorise again at load, uncounted: theirs is the code the step uses.
+  /// load_held throws std::runtime_error on bytes of another model or a factorisation that fails.
+  ///@{
   void save_held(OutArchive& a) const;
   void load_held(InArchive& a, double min_pivot_ratio);
-  // Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
+  ///@}
+  /// Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
   bool sincos_hold(ConstVecRef q) const;
-  // ... and C(q) is factorised (one comparison of q).
+  /// ... and C(q) is factorised (one comparison of q).
   bool chain_factor_holds(ConstVecRef q) const { return factor_valid_ && sincos_hold(q); }
-  // chain_sincos now holds sin/cos of the q of the one-form cache (computed by the caller).
+  /// chain_sincos now holds sin/cos of the q of the one-form cache (computed by the caller).
   void sincos_computed_for_key() { sincos_valid_ = key_valid_; }
-  // The Status and message of a failed factorisation (as factorize() reports it).
+  /// The Status and message of a failed factorisation (as factorize() reports it).
   Status report_factor_failure(sparse::FactorStatus status);
 
  private:

@@ -1,54 +1,61 @@
 #pragma once
-// LDL^T of a symmetric positive definite C whose natural order is banded (a chain ordered
-// body by body: half-bandwidth kd = 4), in band storage, without CHOLMOD (DESIGN.md section 7).
-// Row r of the band holds C(r, r-kd .. r) before factorisation and L(r, r-kd .. r-1), 1/D(r)
-// after (a multiplication in the solves instead of a division), so that a caller can also fill and eliminate it one row at a time while it streams
-// over the bodies (the fused chain step, core/src/chain_sweep.cpp): eliminate_row() then
-// forward_row() per row, back_substitute() at the end. No allocation after construction.
+/// @file
+/// LDL^T of a symmetric positive definite C whose natural order is banded (a chain ordered
+/// body by body: half-bandwidth kd = 4), in band storage, without CHOLMOD (docs/design.md §7).
+/// Row r of the band holds C(r, r-kd .. r) before factorisation and L(r, r-kd .. r-1), 1/D(r)
+/// after (a multiplication in the solves instead of a division), so that a caller can also fill and eliminate it one row at a time while it streams
+/// over the bodies (the fused chain step, core/src/chain_sweep.cpp): eliminate_row() then
+/// forward_row() per row, back_substitute() at the end. No allocation after construction.
 #include <nonholo/sparse/factorization.hpp>
 
 #include <vector>
 
 namespace nonholo::sparse {
 
-// Half-bandwidth of the pattern in its natural order: max over entries (i, j) of i - j.
+/// Half-bandwidth of the pattern in its natural order: max over entries (i, j) of i - j.
 int half_bandwidth(const SymmetricPattern& pattern);
-// Auto's test for the banded path: the band, (kd + 1) rows wide, stores at most 4 times the
-// lower triangle's entries (so a few long-reaching rows do not make it wasteful) and
-// kd <= kBandedMaxBandwidth.
+/// Auto's test for the banded path: the band, (kd + 1) rows wide, stores at most 4 times the
+/// lower triangle's entries (so a few long-reaching rows do not make it wasteful) and
+/// kd <= kBandedMaxBandwidth.
+///@{
 inline constexpr int kBandedMaxBandwidth = 32;
 bool band_is_compact(const SymmetricPattern& pattern);
+///@}
 
+/// The Banded backend (see banded_ldlt.hpp).
 class BandedLdlt final : public Factorization {
  public:
+  /// For C of this pattern (its half-bandwidth is kd).
   explicit BandedLdlt(const SymmetricPattern& pattern);
-  // A band of this size and half-bandwidth whose owner fills every row itself (row(),
-  // eliminate_row(): a chain of elements writes its rows in closed form), with no pattern:
-  // factorize() and factorize_in_place() then report InvalidInput.
+  /// A band of this size and half-bandwidth whose owner fills every row itself (row(),
+  /// eliminate_row(): a chain of elements writes its rows in closed form), with no pattern:
+  /// factorize() and factorize_in_place() then report InvalidInput.
   BandedLdlt(int size, int kd);
 
   FactorStatus factorize(const double* c_values, double min_pivot_ratio) override;
-  // C's values written straight into the band (GramAssembler::assemble with slot_positions()):
-  // no copy of C, no c_values buffer (96 MB for a million-body chain).
+  /// C's values written straight into the band (GramAssembler::assemble with slot_positions()):
+  /// no copy of C, no c_values buffer (96 MB for a million-body chain).
+  ///@{
   double* values_in_place() override { return band_.data(); }
   const int* slot_positions() const override { return position_.data(); }
   FactorStatus factorize_in_place(double min_pivot_ratio) override;
+  ///@}
   FactorStatus solve(const double* b, double* x) override;
-  Backend backend() const override { return Backend::Banded; }
-  std::vector<double>* numeric_state() override { return &band_; }
+  Backend backend() const override { return Backend::Banded; }  ///< Backend::Banded
+  std::vector<double>* numeric_state() override { return &band_; }  ///< the band
 
-  int bandwidth() const { return kd_; }
-  int stride() const { return kd_ + 1; }
-  // Row r of the band: entry r - kd + t at [t], the diagonal at [kd].
+  int bandwidth() const { return kd_; }  ///< kd, the half-bandwidth
+  int stride() const { return kd_ + 1; }  ///< entries per row of the band
+  /// Row r of the band: entry r - kd + t at [t], the diagonal at [kd].
   double* row(int r) { return band_.data() + static_cast<std::ptrdiff_t>(r) * (kd_ + 1); }
 
   // --- row by row (fused steps) ---------------------------------------------------------
-  // Starts a factorisation whose rows the caller fills into row(r) (every band entry of the
-  // row, zeros included) and eliminates in order 0, 1, ..., size()-1.
+  /// Starts a factorisation whose rows the caller fills into row(r) (every band entry of the
+  /// row, zeros included) and eliminates in order 0, 1, ..., size()-1.
   void begin_rows();
-  // Eliminates row r (rows before it already eliminated). Returns false when the pivot test
-  // fails; finish_rows() then reports why, as factorize() would. KD >= 0 fixes the bandwidth
-  // at compile time (it must equal bandwidth()): the loops unroll.
+  /// Eliminates row r (rows before it already eliminated). Returns false when the pivot test
+  /// fails; finish_rows() then reports why, as factorize() would. KD >= 0 fixes the bandwidth
+  /// at compile time (it must equal bandwidth()): the loops unroll.
   template <int KD = -1>
   bool eliminate_row(int r, double min_pivot_ratio) {
     const int kd = KD >= 0 ? KD : kd_;
@@ -70,7 +77,7 @@ class BandedLdlt final : public Factorization {
     }
     return accept_pivot(r, a + kd, d, diagonal, min_pivot_ratio);
   }
-  // y_r = (b_r - sum_s L(r, s) y_s) for s < r: the forward substitution of row r, in place.
+  /// y_r = (b_r - sum_s L(r, s) y_s) for s < r: the forward substitution of row r, in place.
   template <int KD = -1>
   void forward_row(int r, double* y) {
     const int kd = KD >= 0 ? KD : kd_;
@@ -86,7 +93,7 @@ class BandedLdlt final : public Factorization {
     if (t < kd) v0 -= a[t] * y[r - kd + t];
     y[r] = v0 - v1;
   }
-  // x_r = y_r / D_r - sum_{s > r} L(s, r) x_s for one row, rows after r already done.
+  /// x_r = y_r / D_r - sum_{s > r} L(s, r) x_s for one row, rows after r already done.
   template <int KD = -1>
   void backward_row(int r, double* x) {
     const int kd = KD >= 0 ? KD : kd_;
@@ -101,11 +108,12 @@ class BandedLdlt final : public Factorization {
     if (k <= hi) v0 -= row(r + k)[kd - k] * x[r + k];
     x[r] = v0 - v1;
   }
-  // The same three steps for a row whose band entries before column LO are structurally zero
-  // (and stay so: an LDL^T row fills only after its first nonzero), or whose column has no
-  // entry below row r + HI, with KD fixed and r away from the ends (r >= KD; r + HI < size()):
-  // constant bounds, no work on the zeros. The common chain's rows (chain_sweep.cpp) have
-  // LO = 2, 1, 0 and HI = 2, 4, 3.
+  /// The same three steps for a row whose band entries before column LO are structurally zero
+  /// (and stay so: an LDL^T row fills only after its first nonzero), or whose column has no
+  /// entry below row r + HI, with KD fixed and r away from the ends (r >= KD; r + HI < size()):
+  /// constant bounds, no work on the zeros. The common chain's rows (chain_sweep.cpp) have
+  /// LO = 2, 1, 0 and HI = 2, 4, 3.
+  ///@{
   template <int KD, int LO>
   bool eliminate_interior_row(int r, double min_pivot_ratio) {
     double* a = row(r);
@@ -136,9 +144,10 @@ class BandedLdlt final : public Factorization {
     for (int k = 1; k <= HI; ++k) ((k & 1) ? v0 : v1) -= row(r + k)[KD - k] * x[r + k];
     x[r] = v0 + v1;
   }
+  ///@}
 
-  // After eliminate_row for every row (or the first failing one): the status and message
-  // factorize() would give, and min_pivot_ratio()/min_pivot_row() set.
+  /// After eliminate_row for every row (or the first failing one): the status and message
+  /// factorize() would give, and min_pivot_ratio()/min_pivot_row() set.
   FactorStatus finish_rows(double min_pivot_ratio);
 
  private:

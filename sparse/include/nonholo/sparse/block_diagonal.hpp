@@ -1,42 +1,47 @@
 #pragma once
-// A symmetric block-diagonal matrix (the mass metric M and its inverse), one dense block
-// per body. Stored lean, for a million bodies: the diagonal always; the blocks' full entries
-// (row-major, back to back) only once some block is not diagonal; the blocks' offsets and the
-// owner of each coordinate only once the blocks differ in size (else they are computed).
+/// @file
+/// A symmetric block-diagonal matrix (the mass metric M and its inverse), one dense block
+/// per body. Stored lean, for a million bodies: the diagonal always; the blocks' full entries
+/// (row-major, back to back) only once some block is not diagonal; the blocks' offsets and the
+/// owner of each coordinate only once the blocks differ in size (else they are computed).
 #include <Eigen/Core>
 #include <vector>
 
 namespace nonholo::sparse {
 
+/// A symmetric block-diagonal matrix, built block by block (see block_diagonal.hpp).
 class BlockDiagonal {
  public:
-  // Appends a square block; the caller has validated it.
+  /// Appends a square block; the caller has validated it.
   void add_block(const Eigen::Ref<const Eigen::MatrixXd>& block);
-  // Room for this many coordinates (no regrowth while a large model is added block by block).
+  /// Room for this many coordinates (no regrowth while a large model is added block by block).
   void reserve(int coordinates) { diag_.reserve(static_cast<std::size_t>(coordinates)); }
 
-  int size() const { return size_; }
-  int num_blocks() const { return blocks_; }
+  int size() const { return size_; }  ///< rows (and columns)
+  int num_blocks() const { return blocks_; }  ///< blocks added
+  /// Block b's first row, and its number of rows.
+  ///@{
   int block_offset(int b) const { return uniform_ ? b * uniform_ : offsets_[b]; }
   int block_size(int b) const { return uniform_ ? uniform_ : offsets_[b + 1] - offsets_[b]; }
-  // Row-major k x k entries of block b; only when !is_diagonal() (a diagonal matrix keeps
-  // its diagonal alone: use entry() or diagonal()).
+  ///@}
+  /// Row-major k x k entries of block b; only when !is_diagonal() (a diagonal matrix keeps
+  /// its diagonal alone: use entry() or diagonal()).
   const double* block_data(int b) const { return values_.data() + (uniform_ ? b * uniform_ * uniform_ : starts_[b]); }
-  // Block owning coordinate i.
+  /// Block owning coordinate i.
   int block_of(int i) const { return uniform_ ? i / uniform_ : owner_[i]; }
-  // Entry (i, j); zero when i and j lie in different blocks.
+  /// Entry (i, j); zero when i and j lie in different blocks.
   double entry(int i, int j) const;
-  // True when every block is diagonal: products then reduce to a scaled copy.
+  /// True when every block is diagonal: products then reduce to a scaled copy.
   bool is_diagonal() const { return diagonal_; }
-  // The diagonal entries (size() of them); all of the matrix when is_diagonal().
+  /// The diagonal entries (size() of them); all of the matrix when is_diagonal().
   const double* diagonal() const { return diag_.data(); }
 
-  // y = B x (x and y must not alias).
+  /// y = B x (x and y must not alias).
   void multiply(const double* x, double* y) const;
-  // The same on the entries [first, last) only, which must start and end at block boundaries
-  // (block_offset); the other entries of y are not touched.
+  /// The same on the entries [first, last) only, which must start and end at block boundaries
+  /// (block_offset); the other entries of y are not touched.
   void multiply(const double* x, double* y, int first, int last) const;
-  // The inverse, block by block (blocks must be SPD).
+  /// The inverse, block by block (blocks must be SPD).
   BlockDiagonal inverse() const;
 
  private:

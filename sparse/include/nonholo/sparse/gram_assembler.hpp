@@ -1,11 +1,12 @@
 #pragma once
-// C = A W A^T for a fixed row pattern A (the one-forms mu) and a constant block-diagonal W
-// (M^-1). The pattern of C and an index map of products are computed once; assemble() then
-// writes C's values with no allocation and no sparse product. A product whose weight is a
-// structural zero of W is dropped, but a value of A that happens to be zero keeps its slot.
-// Built in O(nnz(A) + products) time with arrays of their final size (a million-body chain
-// takes a fraction of a second; the only temporaries are a transpose of A's pattern and a
-// few per-row markers).
+/// @file
+/// C = A W A^T for a fixed row pattern A (the one-forms mu) and a constant block-diagonal W
+/// (M^-1). The pattern of C and an index map of products are computed once; assemble() then
+/// writes C's values with no allocation and no sparse product. A product whose weight is a
+/// structural zero of W is dropped, but a value of A that happens to be zero keeps its slot.
+/// Built in O(nnz(A) + products) time with arrays of their final size (a million-body chain
+/// takes a fraction of a second; the only temporaries are a transpose of A's pattern and a
+/// few per-row markers).
 #include <nonholo/sparse/block_diagonal.hpp>
 #include <nonholo/sparse/patterns.hpp>
 
@@ -13,16 +14,18 @@
 
 namespace nonholo::sparse {
 
+/// Assembles C = A W A^T for a fixed pattern of A (see gram_assembler.hpp).
 class GramAssembler {
  public:
-  GramAssembler() = default;
+  GramAssembler() = default;  ///< empty: for C of no rows
+  /// Computes C's pattern and the index map of its products for this A and W.
   GramAssembler(const RowPattern& a, const BlockDiagonal& w);
 
-  const SymmetricPattern& pattern() const { return pattern_; }
-  int num_products() const { return num_products_; }
+  const SymmetricPattern& pattern() const { return pattern_; }  ///< C's lower triangle
+  int num_products() const { return num_products_; }  ///< products summed by assemble()
 
-  // c_values[s] for every slot s of pattern(), from the values of A in pattern order;
-  // with `position`, slot s goes to c_values[position[s]] instead (a solver's own storage).
+  /// c_values[s] for every slot s of pattern(), from the values of A in pattern order;
+  /// with `position`, slot s goes to c_values[position[s]] instead (a solver's own storage).
   void assemble(const double* a_values, double* c_values, const int* position = nullptr) const;
 
  private:
