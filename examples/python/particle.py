@@ -43,7 +43,7 @@ for k in range(round(t_end / h) + 1):
     energy_post.append(d.energy_post)
 t, q, energy, energy_post = map(np.array, (t, q, energy, energy_post))
 
-# The exact solution (DESIGN.md section 6) from the projected start: y = y0 + ydot0 t and
+# The exact solution (docs/design.md section 6) from the projected start: y = y0 + ydot0 t and
 # xdot sqrt(1 + y^2) = K.
 (x0, y0, z0), (xd0, yd0, _) = q0, v0
 k = xd0 * math.sqrt(1.0 + y0 * y0)

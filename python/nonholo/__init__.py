@@ -1,19 +1,39 @@
 """nonholo: momentum- and energy-preserving integrators for nonholonomic systems.
 
-High level, as the command-line tool:
+High level, as the command-line tool::
+
     nonholo.run(scene_or_file, dt=..., t_end=..., set={...}, method=..., order=..., hitch=..., every=...)
     nonholo.batch(scene_or_file, count=..., vary={...}, ...)
     nonholo.scenes()
     nonholo.load(path)   # a run's or batch's output file (CSV or HDF5) back as results
+
 Low level, the C++ library (ModelBuilder, Model, Workspace, RattleOptions, State, step, ...):
 see help(nonholo._core).
+
+Messages name the keywords as these functions take them (t_end=-1), not the command line's
+flags (--t-end -1); RunResult.line and BatchResult.line stay the tool's own lines.
 """
+from __future__ import annotations  # the annotations are for type checkers (py.typed, _core.pyi)
+
 import os as _os
+import re as _re
+import typing as _typing
 
 import numpy as _np
 
 from . import _core
 from ._core import *  # noqa: F401,F403  (the library's API)
+
+if _typing.TYPE_CHECKING:  # names for the annotations only, kept out of the module's namespace
+    from typing import Any, Dict, Iterable, List, Mapping, Optional, Tuple, Union
+
+    from numpy.typing import NDArray
+
+    _Path = Union[str, "_os.PathLike[str]"]
+    _Real = Union[float, "_np.floating[Any]", "_np.integer[Any]"]
+    _Integer = Union[int, "_np.integer[Any]"]
+    _Assignments = Union[Mapping[str, _Real], str, Iterable[str]]  # set=: {NAME: value} or "NAME=VALUE"s
+    _Ranges = Union[Mapping[str, Tuple[_Real, _Real]], str, Iterable[str]]  # vary=: {NAME: (lo, hi)} or "NAME=LO:HI"s
 
 __version__ = _core.__version__  # CMakeLists.txt's project(VERSION); _core.__git_revision__ too
 
@@ -25,7 +45,7 @@ class RunError(RuntimeError):
     """A run or batch that did not end with status ok, raised on request (check=True).
     The results up to the failure are in .result."""
 
-    def __init__(self, message, result):
+    def __init__(self, message: str, result: Union[RunResult, BatchResult]) -> None:
         super().__init__(message)
         self.result = result
 
@@ -33,14 +53,15 @@ class RunError(RuntimeError):
 class _Result:
     """Results built from the dict the C++ returns: one attribute per slot."""
 
-    __slots__ = ()
+    __slots__: Tuple[str, ...] = ()
+    summary: Dict[str, Any]
 
-    def __init__(self, d):
+    def __init__(self, d: Dict[str, Any]) -> None:
         for name in self.__slots__:
             setattr(self, name, d[name])
 
     @property
-    def status(self):
+    def status(self) -> str:
         return self.summary["status"]
 
 
@@ -48,23 +69,35 @@ class RunResult(_Result):
     """What run() returns: the frames written (t_0, every `every`-th step and the last), as
     the CLI's CSV holds them, and the CLI's summary.
 
-    t            (frames,) times
-    q            (frames, coordinates) configurations
-    p            (frames, velocities) the momentum the method carries (reflection: p~; the
-                 reference methods: M v), as the HDF5 output's /p (None from a CSV file)
-    coordinates  the coordinates' names (the CSV's header); velocities: p's entries' names
-    energy, energy_post, residual, gap   (frames,) per-frame diagnostics (gap: the hitches'
-                 largest |g|; None from a CSV file)
-    summary      the summary line as a dict, numbers unrounded; "status" is "ok" unless a step
-                 failed ("message" says why), "warning" what the CLI prints on stderr ({} from
-                 a CSV file, which has no summary)
-    line         the summary line exactly as `nonholo run` prints it ("" from a file)
+    Attributes::
+
+        t            (frames,) times
+        q            (frames, coordinates) configurations
+        p            (frames, velocities) the momentum the method carries (reflection: p~; the
+                     reference methods: M v), as the HDF5 output's /p (None from a CSV file)
+        coordinates  the coordinates' names (the CSV's header); velocities: p's entries' names
+        energy, energy_post, residual, gap   (frames,) per-frame diagnostics (gap: the hitches'
+                     largest |g|; None from a CSV file)
+        summary      the summary line as a dict, numbers unrounded; "status" is "ok" unless a step
+                     failed ("message" says why), "warning" what the CLI prints on stderr ({} from
+                     a CSV file, which has no summary)
+        line         the summary line exactly as `nonholo run` prints it ("" from a file)
     """
 
     __slots__ = ("t", "q", "p", "coordinates", "velocities", "energy", "energy_post", "residual", "gap",
                  "summary", "line")
+    t: NDArray[_np.float64]
+    q: NDArray[_np.float64]
+    p: Optional[NDArray[_np.float64]]
+    coordinates: List[str]
+    velocities: List[str]
+    energy: NDArray[_np.float64]
+    energy_post: NDArray[_np.float64]
+    residual: NDArray[_np.float64]
+    gap: Optional[NDArray[_np.float64]]
+    line: str
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<nonholo.RunResult %s: %d frames x %d coordinates, status=%s>" % (
             self.summary["scene"], self.t.shape[0], len(self.coordinates), self.status)
 
@@ -72,23 +105,32 @@ class RunResult(_Result):
 class BatchResult(_Result):
     """What batch() returns: one row per trajectory, as the CLI's batch CSV.
 
-    columns   dict of the CSV's columns (same names and order) as 1-D numpy arrays
-    messages  per trajectory: why it failed ("" when it did not)
-    summary   the summary line as a dict (trajectories, threads, failed, first_failure too)
-    line      the summary line exactly as `nonholo batch` prints it
-    q, p      with states: every trajectory's whole final state, (count, coordinates) and
-              (count, velocities) arrays (NaN rows where a set-up failed); None otherwise
-    coordinates, velocities   their names (None without states)
+    Attributes::
+
+        columns   dict of the CSV's columns (same names and order) as 1-D numpy arrays
+        messages  per trajectory: why it failed ("" when it did not)
+        summary   the summary line as a dict (trajectories, threads, failed, first_failure too)
+        line      the summary line exactly as `nonholo batch` prints it
+        q, p      with states: every trajectory's whole final state, (count, coordinates) and
+                  (count, velocities) arrays (NaN rows where a set-up failed); None otherwise
+        coordinates, velocities   their names (None without states)
     """
 
     __slots__ = ("columns", "messages", "summary", "line", "q", "p", "coordinates", "velocities")
+    columns: Dict[str, NDArray[Any]]
+    messages: List[str]
+    line: str
+    q: Optional[NDArray[_np.float64]]
+    p: Optional[NDArray[_np.float64]]
+    coordinates: Optional[List[str]]
+    velocities: Optional[List[str]]
 
-    def __init__(self, d):
+    def __init__(self, d: Dict[str, Any]) -> None:
         for name in ("q", "p", "coordinates", "velocities"):
             d.setdefault(name, None)
         super().__init__(d)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "<nonholo.BatchResult %s: %d trajectories, %d failed>" % (
             self.summary["scene"], self.summary["trajectories"], self.summary["failed"])
 
@@ -168,6 +210,42 @@ def _run_arguments(what, scene, dt, t_end, set, method, order, hitch, backend, r
     return args
 
 
+# A flag of the tool, alone or with a number after it, or quoted text (the caller's own, kept).
+_FLAG = _re.compile(r"(?<!\w)'[^']*'|(?<![\w-])--([a-z][a-z0-9-]*)( -?[0-9][0-9.]*(?:e[-+]?[0-9]+)?(?!\w))?")
+
+
+def _keywords_in(text, keywords):
+    """The tool's message with its flags named as the Python keywords: "--t-end -1" becomes
+    "t_end=-1", "--restart auto" "restart auto"; flags that are no keyword stay (--help)."""
+    def name(m):
+        keyword = (m.group(1) or "").replace("-", "_")
+        if keyword not in keywords:
+            return m.group(0)
+        return keyword + ("=" + m.group(2)[1:] if m.group(2) else "")
+    return _FLAG.sub(name, text)
+
+
+def _keywords(function):
+    code = function.__code__
+    return frozenset(code.co_varnames[:code.co_argcount + code.co_kwonlyargcount])
+
+
+def _call_tool(core, keywords, *args):
+    """_core._run or _core._batch: their messages (ValueError, the summary's and the trajectories')
+    in the keywords of the Python function that called them."""
+    try:
+        d = core(*args)
+    except ValueError as e:
+        raise ValueError(_keywords_in(str(e), keywords)) from None
+    summary = d["summary"]
+    for key in ("message", "warning", "first_failure"):
+        if isinstance(summary.get(key), str):
+            summary[key] = _keywords_in(summary[key], keywords)
+    if "messages" in d:
+        d["messages"] = [_keywords_in(m, keywords) for m in d["messages"]]
+    return d
+
+
 def _finish(result, d, check, what):
     interrupt = d.get("interrupt")
     if interrupt is not None:  # Ctrl-C during the run or batch: raised, with the results so far
@@ -179,10 +257,15 @@ def _finish(result, d, check, what):
     return result
 
 
-def run(scene=None, *, dt=None, t_end=None, set=None, method=None, order=None, hitch=None, every=None,
-        backend=None, restart=None, restart_tol=None, monitor_every=None, composition=None,
-        error_estimate=False, project=False, tol=None, rotation=None, accuracy=None, out=None, check=False,
-        checkpoint=None, checkpoint_every=None, resume=None):
+def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Optional[_Real] = None,
+        set: Optional[_Assignments] = None, method: Optional[str] = None, order: Optional[_Integer] = None,
+        hitch: Optional[str] = None, every: Optional[_Integer] = None, backend: Optional[str] = None,
+        restart: Union[str, _Integer, None] = None, restart_tol: Optional[_Real] = None,
+        monitor_every: Optional[_Integer] = None, composition: Optional[str] = None, error_estimate: bool = False,
+        project: bool = False, tol: Optional[_Real] = None, rotation: Optional[str] = None,
+        accuracy: Optional[_Real] = None, out: Optional[_Path] = None, check: bool = False,
+        checkpoint: Optional[_Path] = None, checkpoint_every: Union[str, _Integer, None] = None,
+        resume: Optional[_Path] = None) -> RunResult:
     """Integrates one scene (a built-in name or a scene file) as `nonholo run` does and
     returns a RunResult with its frames and summary.
 
@@ -200,8 +283,9 @@ def run(scene=None, *, dt=None, t_end=None, set=None, method=None, order=None, h
     Ctrl-C stops it) and, with checkpoint_every (steps, or "60s"), during it;
     run(resume=path, t_end=...) continues such a run bit for bit, with the checkpoint's options
     (no scene or other option then), its frames from where it resumed (the output file has the
-    earlier ones). Bad options raise ValueError with the tool's message; a failed step ends the
-    run early with summary["status"] saying why (check=True raises RunError instead). Ctrl-C
+    earlier ones). Bad options raise ValueError with the tool's message, naming the keywords
+    (t_end=-1 where the tool says --t-end -1); a failed step ends the run early with
+    summary["status"] saying why (check=True raises RunError instead). Ctrl-C
     raises KeyboardInterrupt with the frames so far in its .result.
     """
     if resume is not None:
@@ -214,7 +298,7 @@ def run(scene=None, *, dt=None, t_end=None, set=None, method=None, order=None, h
         if given:
             raise ValueError("%s with resume: a resumed run takes its scene and options from the checkpoint (only "
                              "t_end, checkpoint and checkpoint_every may be given)" % ", ".join(given))
-        args = []
+        args: List[str] = []
         _option(args, "t_end", "--t-end", t_end, _number)
         _option(args, "resume", "--resume", resume, _text)
     else:
@@ -227,14 +311,19 @@ def run(scene=None, *, dt=None, t_end=None, set=None, method=None, order=None, h
     _option(args, "checkpoint", "--checkpoint", checkpoint, _text)
     _option(args, "checkpoint_every", "--checkpoint-every", checkpoint_every,
             lambda k, v: _text(k, v) if isinstance(v, str) else _integer(k, v))
-    d = _core._run(args)
+    d = _call_tool(_core._run, _keywords(run), args)
     return _finish(RunResult(d), d, check, "run")
 
 
-def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None, t_end=None, set=None,
-          method=None, order=None, hitch=None, backend=None, restart=None, restart_tol=None,
-          monitor_every=None, composition=None, error_estimate=False, project=False, tol=None,
-          rotation=None, accuracy=None, check=False, states=None):
+def batch(scene: _Path, *, count: _Integer, threads: Optional[_Integer] = None, vary: Optional[_Ranges] = None,
+          seed: Optional[_Integer] = None, out: Optional[_Path] = None, dt: Optional[_Real] = None,
+          t_end: Optional[_Real] = None, set: Optional[_Assignments] = None, method: Optional[str] = None,
+          order: Optional[_Integer] = None, hitch: Optional[str] = None, backend: Optional[str] = None,
+          restart: Union[str, _Integer, None] = None, restart_tol: Optional[_Real] = None,
+          monitor_every: Optional[_Integer] = None, composition: Optional[str] = None, error_estimate: bool = False,
+          project: bool = False, tol: Optional[_Real] = None, rotation: Optional[str] = None,
+          accuracy: Optional[_Real] = None, check: bool = False,
+          states: Union[bool, _Path, None] = None) -> BatchResult:
     """Many trajectories of one scene in parallel, as `nonholo batch` does: count
     trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
     from seed, threads (default: all cores), out (the CLI's CSV, or HDF5 for .h5) and run()'s
@@ -255,11 +344,11 @@ def batch(scene, *, count, threads=None, vary=None, seed=None, out=None, dt=None
     _option(args, "out", "--out", out, _text)
     if states is not None and states is not True and states is not False:
         _option(args, "states", "--states", states, _text)
-    d = _core._batch(args, bool(states))
+    d = _call_tool(_core._batch, _keywords(batch), args, bool(states))
     return _finish(BatchResult(d), d, check, "batch")
 
 
-def scenes():
+def scenes() -> List[Dict[str, Any]]:
     """The built-in scenes: a list of dicts with name, description, dt, t_end (the defaults)
     and parameters (each a dict with name, default and description)."""
     return _core._scenes()
@@ -347,7 +436,7 @@ def _load_hdf5(path):
                          "run(resume=...), not loaded)" % (path, kind))
 
 
-def load(path):
+def load(path: _Path) -> Union[RunResult, BatchResult]:
     """A run's or a batch's output file, as `nonholo run|batch --out` (or out=) wrote it, back as a
     RunResult or BatchResult. HDF5 (.h5, .hdf5; needs h5py) has everything: t, q, p, the
     diagnostics, gap and the summary; a CSV has t, q, energy, energy_post and residual (p, gap

@@ -27,6 +27,21 @@
 
 namespace nonholo::python {
 namespace py = pybind11;
+
+// A types.SimpleNamespace (build_scene's result), named so in the Python signature.
+class SimpleNamespace : public py::object {
+ public:
+  explicit SimpleNamespace(py::object o) : py::object(std::move(o)) {}
+};
+
+}  // namespace nonholo::python
+
+template <>
+struct pybind11::detail::handle_type_name<nonholo::python::SimpleNamespace> {
+  static constexpr auto name = const_name("types.SimpleNamespace");
+};
+
+namespace nonholo::python {
 namespace {
 
 using Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
@@ -162,6 +177,9 @@ void bind_status(py::module_& m) {
     }
     e.value(name.c_str(), s);
   }
+  // pybind11's own `value` has no docstring: the same property again, documented.
+  e.def_property_readonly("value", [](Status s) { return static_cast<int>(s); },
+                          "The enumerator's integer value, as in C++ (Status.Ok is 0).");
   e.def_property_readonly("text", [](Status s) { return to_string(s); },
                           "The library's name for it, as the command line prints it: 'ok', 'callback-failed', ...");
 }
@@ -206,37 +224,66 @@ rigid bodies: the rotation's discrete Lagrangian) is 'moser-veselov', 'moser-ves
         py::arg("composition") = to_string(d.composition), py::arg("rotation") = to_string(d.rotation));
 
   // A validated attribute: changed on a copy, checked whole, then kept.
-  auto field = [&c](const char* name, auto get, auto set) {
+  auto field = [&c](const char* name, auto get, auto set, const char* doc) {
     using T = decltype(get(std::declval<const RattleOptions&>()));
     c.def_property(name, get, [set](RattleOptions& o, T value) {
       RattleOptions changed = o;
       set(changed, value);
       validate(changed);
       o = changed;
-    });
+    }, doc);
   };
-  field("h", [](const RattleOptions& o) { return o.h; }, [](RattleOptions& o, double v) { o.h = v; });
+  field("h", [](const RattleOptions& o) { return o.h; }, [](RattleOptions& o, double v) { o.h = v; },
+        "The time step (with order 4, 6 or 8, the composed step's size H).");
   field("min_pivot_ratio", [](const RattleOptions& o) { return o.min_pivot_ratio; },
-        [](RattleOptions& o, double v) { o.min_pivot_ratio = v; });
+        [](RattleOptions& o, double v) { o.min_pivot_ratio = v; },
+        "The smallest accepted pivot of C relative to its diagonal (the squared sine of the angle "
+        "between a one-form and the span of the others); below it the step refuses "
+        "(Status.NearlyDependentOneForms): nearly dependent one-forms would make lambda meaningless.");
   field("hitch", [](const RattleOptions& o) { return std::string(to_string(o.hitch)); },
-        [](RattleOptions& o, const std::string& v) { o.hitch = hitch_mode_from_string(v); });
+        [](RattleOptions& o, const std::string& v) { o.hitch = hitch_mode_from_string(v); },
+        "How the holonomic rows (hitches) are treated: 'holonomic' (g(q_{k+1}) = 0 enforced at position "
+        "level, as RATTLE does) or 'oneform' (plain one-forms, the paper's method).");
   field("gap_tolerance", [](const RattleOptions& o) { return o.gap_tolerance; },
-        [](RattleOptions& o, double v) { o.gap_tolerance = v; });
+        [](RattleOptions& o, double v) { o.gap_tolerance = v; },
+        "Holonomic mode (hitch 'holonomic'): the position-level corrections iterate until "
+        "max ``|g_j(q_{k+1})|`` <= gap_tolerance (raised to 16 eps max ``|q|`` when round-off alone exceeds it, up to "
+        "gap_tolerance_limit).");
   field("gap_tolerance_limit", [](const RattleOptions& o) { return o.gap_tolerance_limit; },
-        [](RattleOptions& o, double v) { o.gap_tolerance_limit = v; });
+        [](RattleOptions& o, double v) { o.gap_tolerance_limit = v; },
+        "Holonomic mode (hitch 'holonomic'): the most gap_tolerance is raised to for large coordinates "
+        "(at ``|q|`` ~ 1e19 round-off is 3e4); a step that cannot close the gaps to it fails with "
+        "Status.GapNotConverged.");
   field("max_gap_iterations", [](const RattleOptions& o) { return o.max_gap_iterations; },
-        [](RattleOptions& o, int v) { o.max_gap_iterations = v; });
+        [](RattleOptions& o, int v) { o.max_gap_iterations = v; },
+        "Holonomic mode (hitch 'holonomic'): the position-level corrections a step may take before it "
+        "fails with Status.GapNotConverged.");
   field("restart", [](const RattleOptions& o) { return restart_spec(o.restart); },
-        [](RattleOptions& o, const std::string& v) { set_restart(o.restart, v); });
+        [](RattleOptions& o, const std::string& v) { set_restart(o.restart, v); },
+        "When the multipliers are restarted against the period-2 mode: 'auto' (when the measured "
+        "parasitic amplitude exceeds restart_tolerance), '0' (never: the paper's plain method) or a "
+        "whole number K (every K steps).");
   field("restart_tolerance", [](const RattleOptions& o) { return o.restart.tolerance; },
-        [](RattleOptions& o, double v) { o.restart.tolerance = v; });
+        [](RattleOptions& o, double v) { o.restart.tolerance = v; },
+        "restart 'auto': restart when the parasitic amplitude (h/2) "
+        "``|lambda~ - lambda_s|_C / |p~|_{M^-1}`` (dimensionless) exceeds this; 0: h^3 (h in the "
+        "model's time unit, never below the amplitude's round-off), 1e-3 from h = 0.1 on.");
   field("monitor_every", [](const RattleOptions& o) { return o.restart.monitor_every; },
-        [](RattleOptions& o, int v) { o.restart.monitor_every = v; });
-  field("order", [](const RattleOptions& o) { return o.order; }, [](RattleOptions& o, int v) { o.order = v; });
+        [](RattleOptions& o, int v) { o.restart.monitor_every = v; },
+        "Measure the parasitic amplitude at least every this many steps, in every restart mode "
+        "(0: never; restart 'auto' needs at least 1).");
+  field("order", [](const RattleOptions& o) { return o.order; }, [](RattleOptions& o, int v) { o.order = v; },
+        "2 (the plain step of size h), or 4, 6 or 8: one step advances by h through a palindromic "
+        "composition of plain substeps (see composition).");
   field("composition", [](const RattleOptions& o) { return std::string(to_string(o.composition)); },
-        [](RattleOptions& o, const std::string& v) { o.composition = composition_from_string(v); });
+        [](RattleOptions& o, const std::string& v) { o.composition = composition_from_string(v); },
+        "The composition of orders 4, 6 and 8 (names in the class's text); 'auto': blanes-moan4, "
+        "blanes-moan6 or kahan-li17 for the order (none for order 2).");
   field("rotation", [](const RattleOptions& o) { return std::string(to_string(o.rotation)); },
-        [](RattleOptions& o, const std::string& v) { o.rotation = rotation_from_string(v); });
+        [](RattleOptions& o, const std::string& v) { o.rotation = rotation_from_string(v); },
+        "Models with 3-D rigid bodies: the rotation's discrete Lagrangian, 'moser-veselov' (energy exact "
+        "for any inertia), 'moser-veselov-f' (also exact on an isotropic body's free rotation) or "
+        "'exponential' (for comparison: its energy drifts for a non-isotropic body).");
   c.def("__repr__", [](const RattleOptions& o) {
     std::ostringstream os;
     os << "RattleOptions(h=" << num(o.h) << ", min_pivot_ratio=" << num(o.min_pivot_ratio) << ", hitch='"
@@ -355,7 +402,9 @@ are named qw<name>, qx<name>, ..., x<name>; velocities wx<name>, ..., vx<name> (
 body's index when empty).)")
       .def("reserve", [](PyBuilder& b, int bodies, int coordinates, int rows, int values) {
             b.builder.reserve(bodies, coordinates, rows, values);
-          }, py::arg("bodies"), py::arg("coordinates"), py::arg("rows"), py::arg("values"))
+          }, py::arg("bodies"), py::arg("coordinates"), py::arg("rows"), py::arg("values"),
+          R"(Optional: room for a model of this size (bodies, coordinates, rows of mu and their nonzero
+values), so that a million bodies are added without regrowing the builder's arrays.)")
       .def("add_one_form", [](PyBuilder& b, const std::vector<int>& columns, std::string label) {
             return b.builder.add_one_form(columns, std::move(label));
           }, py::arg("columns"), py::arg("label") = "",
@@ -447,7 +496,8 @@ a body moving in a plane ignores the vertical component.)")
           R"(A horizontal symmetry by its generator xi(q) -> n_v values (velocity entries: a rigid body's
 Omega in its body frame, then its centre's velocity), lying in the constraint distribution. Its
 momentum map J = <xi(q), p> is added under `name`, and the restarts keep it exactly.)")
-      .def_property_readonly("calls_python", [](const PyBuilder& b) { return b.calls_python; })
+      .def_property_readonly("calls_python", [](const PyBuilder& b) { return b.calls_python; },
+                             "True once a Python callable has been given to it; the models it builds then call Python.")
       .def("build", [](const PyBuilder& b) { return PyModel{b.builder.build(), b.calls_python}; },
           "The immutable Model (the builder can go on being used).");
 }
@@ -460,28 +510,46 @@ void bind_model(py::module_& m) {
                              "n_q, the size of q (n_v plus one per 3-D rigid body: a quaternion against Omega).")
       .def_property_readonly("num_velocities", [](const PyModel& p) { return p.model.num_velocities(); },
                              "n_v, the size of p, of forces, of a row of mu and of a symmetry's generator.")
-      .def_property_readonly("num_bodies", [](const PyModel& p) { return p.model.num_bodies(); })
-      .def_property_readonly("num_one_forms", [](const PyModel& p) { return p.model.num_one_forms(); })
-      .def_property_readonly("num_one_form_values", [](const PyModel& p) { return p.model.num_one_form_values(); })
-      .def_property_readonly("num_holonomic", [](const PyModel& p) { return p.model.num_holonomic(); })
+      .def_property_readonly("num_bodies", [](const PyModel& p) { return p.model.num_bodies(); },
+                             "The number of bodies, in the order added.")
+      .def_property_readonly("num_one_forms", [](const PyModel& p) { return p.model.num_one_forms(); },
+                             "m, the rows of mu (one-forms and holonomic rows): the size of State.lam.")
+      .def_property_readonly("num_one_form_values", [](const PyModel& p) { return p.model.num_one_form_values(); },
+                             "nnz(mu): the number of values one_form_values() returns.")
+      .def_property_readonly("num_holonomic", [](const PyModel& p) { return p.model.num_holonomic(); },
+                             "The number of holonomic constraints g(q) = 0 (hitches, rods, ...): one per holonomic "
+                             "row.")
       .def_property_readonly("coordinate_names", [](const PyModel& p) { return p.model.coordinate_names(); },
                              "The names of the n_q entries of q.")
       .def_property_readonly("velocity_names", [](const PyModel& p) { return p.model.velocity_names(); },
                              "The names of the n_v velocity entries (coordinate_names unless there are rigid bodies).")
-      .def_property_readonly("has_rigid_bodies", [](const PyModel& p) { return p.model.has_rigid_bodies(); })
-      .def_property_readonly("holonomic_rows", [](const PyModel& p) { return p.model.holonomic_rows(); })
+      .def_property_readonly("has_rigid_bodies", [](const PyModel& p) { return p.model.has_rigid_bodies(); },
+                             "Whether the model has 3-D rigid bodies (ModelBuilder.add_rigid_body; then "
+                             "n_q > n_v).")
+      .def_property_readonly("holonomic_rows", [](const PyModel& p) { return p.model.holonomic_rows(); },
+                             "The rows of mu that are gradients of holonomic constraints g(q) = 0, in "
+                             "declaration order.")
       .def_property_readonly("momentum_map_names", [](const PyModel& p) {
         std::vector<std::string> names;
         for (const NamedMomentumMap& j : p.model.momentum_maps()) names.push_back(j.name);
         return names;
-      })
-      .def_property_readonly("has_analytic_bias", [](const PyModel& p) { return p.model.has_analytic_bias(); })
-      .def_property_readonly("has_potential", [](const PyModel& p) { return p.model.has_potential(); })
-      .def_property_readonly("has_external_force", [](const PyModel& p) { return p.model.has_external_force(); })
-      .def_property_readonly("has_elements", [](const PyModel& p) { return p.model.has_elements(); })
-      .def_property_readonly("is_chain", [](const PyModel& p) { return p.model.is_chain(); })
+      }, "The names of the momentum maps and symmetries, in declaration order (that of momentum_maps()).")
+      .def_property_readonly("has_analytic_bias", [](const PyModel& p) { return p.model.has_analytic_bias(); },
+                             "Whether the model gives its bias (d/dt mu) qdot in closed form "
+                             "(ModelBuilder.one_form_bias).")
+      .def_property_readonly("has_potential", [](const PyModel& p) { return p.model.has_potential(); },
+                             "Whether a potential V(q) is given.")
+      .def_property_readonly("has_external_force", [](const PyModel& p) { return p.model.has_external_force(); },
+                             "Whether an external force F(t, q) is given.")
+      .def_property_readonly("has_elements", [](const PyModel& p) { return p.model.has_elements(); },
+                             "Whether the model is built from constraint elements (add_knife_edge, add_hitch, the "
+                             "rigid-body constraints, ...): its one-form values, bias, gaps, potential and forces "
+                             "are then the elements' own.")
+      .def_property_readonly("is_chain", [](const PyModel& p) { return p.model.is_chain(); },
+                             "Whether the explicit step can stream the model body by body (a chain of elements): "
+                             "backend 'auto' then chooses 'banded'.")
       .def_property_readonly("calls_python", [](const PyModel& p) { return p.calls_python; },
-                             "Whether a callback is Python: if not, step() and steps() release the GIL.")
+                             "True when a callback is Python; when false, step() and steps() release the GIL.")
       .def("body", [](const PyModel& p, int b) {
             if (b < 0 || b >= p.model.num_bodies()) throw py::index_error("body " + std::to_string(b) + " out of range");
             return py::make_tuple(p.model.body(b).offset, p.model.body(b).size);
@@ -499,7 +567,8 @@ the same as in q unless a 3-D rigid body comes first or it is one (body_configur
             for (int i = 0; i < body.size; ++i)
               for (int j = 0; j < body.size; ++j) block(i, j) = p.model.mass().entry(body.offset + i, body.offset + j);
             return block;
-          }, py::arg("b"))
+          }, py::arg("b"), R"(Body b's constant mass block: its square block of M over the body's velocity entries
+(model.body(b)); for a 3-D rigid body the inertia in the body frame, then m on the centre's velocity.)")
       .def("one_form_columns", [](const PyModel& p) {
             const sparse::RowPattern& pattern = p.model.one_form_pattern();
             std::vector<std::vector<int>> rows(static_cast<std::size_t>(pattern.rows));
@@ -545,19 +614,27 @@ swaps the state's vectors with the workspace's buffers, so a view would change m
 it, and writing into a copy would be lost silently. Assigning a whole array (state.q = ...)
 copies it in; it is then up to you to keep the state consistent (force = f + mu^T lam), and
 setting q or p resets target_energy.)")
-      .def_readonly("t", &State::t)
-      .def_property("q", vector(&State::q), set_vector(&State::q, "q", true))
-      .def_property("p", vector(&State::p), set_vector(&State::p, "p", true))
-      .def_property("lam", vector(&State::lambda), set_vector(&State::lambda, "lam", false))
-      .def_property("force", vector(&State::force), set_vector(&State::force, "force", false))
-      .def_readonly("steps", &State::steps)
-      .def_readonly("restarts", &State::restarts)
-      .def_readwrite("target_energy", &State::target_energy)
+      .def_readonly("t", &State::t, "t_k = t0 + k h, the state's time (on its time grid, never summed step by step).")
+      .def_property("q", vector(&State::q), set_vector(&State::q, "q", true),
+                    "The configuration q_k (n_q entries; a rigid body's quaternion renormalised every step).")
+      .def_property("p", vector(&State::p), set_vector(&State::p, "p", true),
+                    "The average momentum p~_k (n_v entries), with mu(q_k) M^-1 p~_k = 0.")
+      .def_property("lam", vector(&State::lambda), set_vector(&State::lambda, "lam", false),
+                    "The multipliers lambda~_k, one per row of mu (sign convention M qdd = f + mu^T lambda).")
+      .def_property("force", vector(&State::force), set_vector(&State::force, "force", false),
+                    "f(t_k, q_k) + mu(q_k)^T lambda~_k (n_v entries): the total force of the next half kick.")
+      .def_readonly("steps", &State::steps, "The steps taken since the start (restarts and measurements follow it).")
+      .def_readonly("restarts", &State::restarts, "The multiplier restarts since the start (RattleOptions.restart).")
+      .def_readwrite("target_energy", &State::target_energy,
+                     R"(Composed steps (RattleOptions.order 4, 6 or 8) without external forces: the energy
+(1/2) p~^T M^-1 p~ + V(q) every composed step restores. NaN until the first composed step sets it
+from the state; setting q or p makes it NaN again.)")
       .def("post_momentum", [](const State& s, double h) { return frozen(s.post_momentum(h)); }, py::arg("h"),
            "p~ + (h/2) force: the momentum leaving t_k.")
       .def("pre_momentum", [](const State& s, double h) { return frozen(s.pre_momentum(h)); }, py::arg("h"),
            "p~ - (h/2) force: the momentum arriving at t_k.")
-      .def("copy", [](const State& s) { return s; })
+      .def("copy", [](const State& s) { return s; },
+           "An independent copy of every field (as copy.copy and copy.deepcopy make).")
       .def("__copy__", [](const State& s) { return s; })
       .def("__deepcopy__", [](const State& s, const py::object&) { return s; })
       // Pickled whole (every field, the time grid and the restart schedule too), bit for bit: a
@@ -615,15 +692,20 @@ One call at a time: see step().)")
            }),
            py::arg("model"), py::arg("backend") = "auto", py::kw_only(), py::arg("composed_steps") = true,
            py::arg("dla_steps") = true, py::keep_alive<1, 2>())
-      .def_property_readonly("message", [](const Workspace& ws) { return std::string(ws.message()); })
-      .def_property_readonly("backend", [](const Workspace& ws) { return std::string(ws.backend_name()); })
-      .def_readonly("factorizations", &Workspace::factorizations)
+      .def_property_readonly("message", [](const Workspace& ws) { return std::string(ws.message()); },
+                             "Why the last failed call failed ('' if it did not).")
+      .def_property_readonly("backend", [](const Workspace& ws) { return std::string(ws.backend_name()); },
+                             "The factorisation of C in use ('auto' resolved: 'block-diagonal', 'dense', 'banded', "
+                             "'cholmod-natural' or 'cholmod-amd'); 'none' for a model without one-forms.")
+      .def_readonly("factorizations", &Workspace::factorizations,
+                    "The numeric factorisations of C so far (the unit of cost the methods are compared in).")
       .def_readonly("parasitic", &Workspace::parasitic, "The parasitic amplitude the last step measured (NaN if none).")
       .def_readonly("restarted", &Workspace::restarted, "Whether the last step restarted the multipliers.")
-      .def_readonly("gap_iterations", &Workspace::gap_iterations)
+      .def_readonly("gap_iterations", &Workspace::gap_iterations,
+                    "The position-level iterations the last step took in holonomic mode (RattleOptions.hitch).")
       .def_readonly("legendre_iterations", &Workspace::legendre_iterations,
-                    "Rigid bodies: the most Newton iterations a discrete Legendre transform has taken so far "
-                    "(0 for the closed forms).");
+                    "The most Newton iterations a discrete Legendre transform has taken so far (rigid bodies; "
+                    "0 for the closed forms).");
 
   m.def("start_from_velocity",
         [](const PyModel& model, Workspace& ws, double t0, const Vector& q0, const Vector& v0,
@@ -666,8 +748,8 @@ those taken). Runs without the GIL when the model calls no Python (Model.calls_p
   py::class_<Diagnostics>(m, "Diagnostics", "What diagnose() measures (core/include/nonholo/diagnostics.hpp).")
       .def_readonly("energy", &Diagnostics::energy, "(1/2) p~ M^-1 p~ + V(q)")
       .def_readonly("energy_post", &Diagnostics::energy_post, "the energy of the post-momentum p_{k-1/2}")
-      .def_readonly("residual", &Diagnostics::residual, "max |mu(q) M^-1 p~|")
-      .def_readonly("gap", &Diagnostics::gap, "max |g(q)| over the holonomic constraints")
+      .def_readonly("residual", &Diagnostics::residual, "max ``|mu(q) M^-1 p~|``")
+      .def_readonly("gap", &Diagnostics::gap, "max ``|g(q)|`` over the holonomic constraints")
       .def("__repr__", [](const Diagnostics& d) {
         std::ostringstream os;
         os << "Diagnostics(energy=" << num(d.energy) << ", energy_post=" << num(d.energy_post)
@@ -703,9 +785,9 @@ those taken). Runs without the GIL when the model calls no Python (Model.calls_p
           for (const auto& [name, value] : set) p.set(name, value);
           scenarios::SceneSetup s = info.build(p);
           using namespace py::literals;
-          return py::module_::import("types").attr("SimpleNamespace")(
+          return SimpleNamespace(py::module_::import("types").attr("SimpleNamespace")(
               "model"_a = PyModel{std::move(s.model), false}, "t0"_a = s.t0, "q0"_a = s.q0, "v0"_a = s.v0,
-              "dt"_a = info.default_dt, "t_end"_a = info.default_t_end);
+              "dt"_a = info.default_dt, "t_end"_a = info.default_t_end));
         },
         py::arg("scene"), py::arg("set") = std::map<std::string, double>{},
         R"(A built-in scene (or a scene file) with parameters set: a namespace with model, t0, q0, v0 (the
@@ -742,7 +824,7 @@ void bind_quaternions(py::module_& m) {
           return Eigen::Matrix3d(quaternion_matrix(v));
         },
         py::arg("q"),
-        "The rotation matrix R of the quaternion q / |q| (w, x, y, z): R x = q x q^*, columns the body axes in space.");
+        "The rotation matrix R of the quaternion q / ``|q|`` (w, x, y, z): R x = q x q^*, columns the body axes in space.");
 }
 
 }  // namespace
@@ -764,8 +846,8 @@ void bind_core(py::module_& m) {
   });
   bind_status(m);
   bind_options(m);
+  bind_model(m);  // before the builder: build()'s signature names Model, not the C++ type
   bind_builder(m);
-  bind_model(m);
   bind_state(m);
   bind_stepping(m);
   bind_quaternions(m);

@@ -16,7 +16,7 @@ import pytest
 
 import nonholo
 
-# The paper's nonholonomic particle (DESIGN.md section 5): R^3, M = I, zdot - y xdot = 0, with
+# The paper's nonholonomic particle (docs/design.md section 5): R^3, M = I, zdot - y xdot = 0, with
 # a velocity already in D (vz0 = y0 vx0) so that the exact solution's data hold as given.
 X0, Y0, Z0, VX0, VY0 = 0.0, -0.5, 0.0, 1.0, 0.3
 Q0, V0 = np.array([X0, Y0, Z0]), np.array([VX0, VY0, Y0 * VX0])
@@ -32,7 +32,7 @@ def particle_builder():
 
 
 def particle_exact(t):
-    """(q, qdot) of DESIGN.md section 6: y linear, xdot sqrt(1 + y^2) = K."""
+    """(q, qdot) of docs/design.md section 6: y linear, xdot sqrt(1 + y^2) = K."""
     k = VX0 * math.sqrt(1.0 + Y0 * Y0)
     y = Y0 + VY0 * t
     q = [X0 + k / VY0 * (math.asinh(y) - math.asinh(Y0)), y,

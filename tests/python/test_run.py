@@ -46,23 +46,51 @@ def test_arrays_have_the_documented_shapes_and_types():
     assert "energy_rel_err_max=%s" % format(s["energy_rel_err_max"], ".6g") in r.line
 
 
-@pytest.mark.parametrize("kwargs, cli_args", [
-    ({"dt": -1.0}, ["--dt", "-1.0"]),
-    ({"set": {"nope": 1}}, ["--set", "nope=1"]),
-    ({"tol": 2.0}, ["--tol", "2.0"]),
-    ({"order": 3}, ["--order", "3"]),
-    ({"hitch": "rigid"}, ["--hitch", "rigid"]),
-    ({"restart": "sometimes"}, ["--restart", "sometimes"]),
-    ({"every": 0}, ["--every", "0"]),
+@pytest.mark.parametrize("kwargs, cli_args, cli_message, message", [
+    ({"dt": -1.0}, ["--dt", "-1.0"], "--dt -1.000000: the step must be positive",
+     "dt=-1.000000: the step must be positive"),
+    ({"set": {"nope": 1}}, ["--set", "nope=1"], "unknown parameter 'nope' for scene 'sleigh' (parameters: m, I, a, "
+     "v0, omega0, x0, y0, theta0)", None),
+    ({"tol": 2.0}, ["--tol", "2.0"], "tolerance = 2 must lie in [1e-15, 1)", None),
+    ({"order": 3}, ["--order", "3"], "--order/--composition: order = 3 must be 2, 4, 6 or 8",
+     "order/composition: order = 3 must be 2, 4, 6 or 8"),
+    ({"hitch": "rigid"}, ["--hitch", "rigid"], "unknown hitch mode 'rigid' (valid: oneform, holonomic)", None),
+    ({"restart": "sometimes"}, ["--restart", "sometimes"],
+     "--restart 'sometimes': expected auto, 0 (never) or a number of steps K from 1 to 1e9",
+     "restart 'sometimes': expected auto, 0 (never) or a number of steps K from 1 to 1e9"),
+    ({"every": 0}, ["--every", "0"], "--every 0: must be at least 1", "every=0: must be at least 1"),
+    ({"restart_tol": 1e-3, "restart": 0}, ["--restart-tol", "1e-3", "--restart", "0"],
+     "--restart-tol applies to --restart auto", "restart_tol applies to restart auto"),
 ])
-def test_bad_options_raise_value_error_with_the_clis_message(kwargs, cli_args):
+def test_bad_options_raise_value_error_with_the_clis_message_in_keywords(kwargs, cli_args, cli_message, message):
+    # The tool's own check and message; from Python it names the keywords (None: no flag in it).
     done = cli("run", "sleigh", *cli_args)
     assert done.returncode == 1
-    message = done.stderr.strip()
-    assert message.startswith("nonholo run: ")
+    assert done.stderr.strip() == "nonholo run: " + cli_message
     with pytest.raises(ValueError) as e:
         nonholo.run("sleigh", **kwargs)
-    assert str(e.value) == message[len("nonholo run: "):]
+    assert str(e.value) == (message or cli_message)
+
+
+def test_batch_messages_name_the_keywords():
+    with pytest.raises(ValueError) as e:
+        nonholo.batch("sleigh", count=2, threads=0)
+    assert str(e.value) == "threads=0: must be at least 1"  # the tool: --threads 0: ...
+    with pytest.raises(ValueError) as e:
+        nonholo.batch("sleigh", count=2, states="s.csv")
+    assert str(e.value) == "states s.csv: the states are written as HDF5: name the file .h5"
+
+
+def test_the_summarys_messages_name_the_keywords_and_the_line_stays_the_tools():
+    # The quoted value is the caller's: kept as given, even when it looks like a flag.
+    with pytest.raises(ValueError, match="^unknown method '--dt' "):
+        nonholo.run("sleigh", method="--dt")
+    r = nonholo.run("sleigh", dt=2.0)  # inaccurate, with a warning
+    message = r.summary["message"]
+    assert "use dt=0.541 or smaller" in message and "accuracy=0 turns the check off" in message
+    assert "reduce dt " in r.summary["warning"]
+    assert not any("--" in r.summary[key] for key in ("message", "warning"))
+    assert "status=inaccurate" in r.line and "--" not in r.line
 
 
 def test_python_values_that_are_not_numbers_are_refused():
