@@ -67,7 +67,7 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                   "measured parasitic amplitude exceeds --restart-tol), K (every K steps) or 0 (never: "
                   "the paper's plain method)");
   cmd->add_option("--restart-tol", o.config.restart_tol,
-                  "--restart auto: restart when the parasitic amplitude exceeds this (default min(dt^3, 1e-3))");
+                  "--restart auto: restart when the parasitic amplitude exceeds this (default max(min(dt^3, 1e-3), 64 eps))");
   cmd->add_option("--monitor-every", o.config.monitor_every,
                   "measure the parasitic amplitude every K steps (default 8; 0: never, not with auto)");
   cmd->add_option("--order", o.config.order,
