@@ -10,7 +10,7 @@ packages=(g++ make cmake libeigen3-dev libsuitesparse-dev libgtest-dev libgmock-
           libbenchmark-dev libcli11-dev liblapack-dev libsundials-dev nlohmann-json3-dev
           python3-dev python3-numpy pybind11-dev python3-pytest python3-jsonschema
           python3-venv python3-pip python3-setuptools python3-wheel python3-build mypy
-          libhdf5-dev python3-h5py python3-matplotlib
+          libhdf5-dev python3-h5py python3-matplotlib python3-pil ffmpeg chromium
           libopenmpi-dev openmpi-bin)
 
 # Installs the given Debian packages that are missing (apt-get update once per shell).

@@ -38,7 +38,7 @@ if _typing.TYPE_CHECKING:  # names for the annotations only, kept out of the mod
 __version__ = _core.__version__  # CMakeLists.txt's project(VERSION); _core.__git_revision__ too
 
 __all__ = [name for name in dir(_core) if not name.startswith("_")] + [
-    "run", "batch", "scenes", "load", "RunResult", "BatchResult", "RunError"]
+    "run", "batch", "scenes", "load", "animate", "view", "RunResult", "BatchResult", "RunError"]
 
 
 class RunError(RuntimeError):
@@ -447,3 +447,18 @@ def load(path: _Path) -> Union[RunResult, BatchResult]:
     if text.endswith(".csv"):
         return _load_csv(text)
     raise ValueError("load(%r): expected a .csv, .h5 or .hdf5 file written by nonholo" % text)
+
+
+def animate(result: Union[RunResult, _Path], path: _Path, **options: Any) -> None:
+    """A GIF or MP4 (by path's extension) of a run: a RunResult or a run's output file (CSV or
+    HDF5). Options as `nonholo animate --help` lists them, as keywords (fps=, width=, follow=,
+    trail=). Needs matplotlib, and Pillow for GIF or ffmpeg for MP4."""
+    from ._animation import animate as _animate
+    _animate(result, path, **options)
+
+
+def view(result: Union[RunResult, _Path], path: _Path, **options: Any) -> None:
+    """A self-contained HTML file that plays a run (a RunResult or a run's output file) in a
+    browser with no server: the bodies, their paths, the energy and residual against time."""
+    from ._viewer import view as _view
+    _view(result, path, **options)

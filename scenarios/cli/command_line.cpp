@@ -27,7 +27,7 @@ constexpr int kInterruptedExit = 130;
 constexpr int kInaccurateExit = 3;  // the run finished, its results are written, but not to --accuracy
 namespace {
 
-constexpr const char* kCommands = "run, batch, list, wp";
+constexpr const char* kCommands = "run, batch, list, wp, animate, view";
 constexpr const char* kRunHelp = "integrate one scene and print a summary line";
 constexpr const char* kBatchHelp = "integrate many trajectories of one scene in parallel";
 // Where --help sends a reader next (the docs live in the repository).
@@ -305,10 +305,15 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   wp_cmd->add_option("--out", wp.directory, "directory for the CSV files (default wp)");
   wp_cmd->add_flag("--quick", wp.quick, "a few points only (seconds instead of minutes)");
 
+  // Listed here for --help; the executable runs them in Python (scenarios/cli/python_commands.cpp).
+  auto* animate_cmd = app.add_subcommand("animate", "a GIF or MP4 of a run's output file (nonholo animate --help)");
+  auto* view_cmd = app.add_subcommand("view", "a self-contained HTML viewer of a run's output file (nonholo view --help)");
+  for (CLI::App* python_cmd : {animate_cmd, view_cmd}) python_cmd->allow_extras()->set_help_flag();
+
   // CLI11 would only say that a subcommand is required; name the unknown word instead.
   if (argc > 1 && argv[1][0] != '-') {
     const std::string word = argv[1];
-    if (word != "run" && word != "batch" && word != "list" && word != "wp") {
+    if (word != "run" && word != "batch" && word != "list" && word != "wp" && word != "animate" && word != "view") {
       err << "nonholo: unknown command '" << word << "' (commands: " << kCommands << ")" << std::endl;
       return 1;
     }
@@ -326,6 +331,8 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       list_scenes(out);
       return 0;
     }
+    if (animate_cmd->parsed() || view_cmd->parsed())
+      throw std::invalid_argument("`" + name + "` is run by the nonholo executable (Python: nonholo." + name + ")");
     if (processes && processes->size() > 1 && !batch_cmd->parsed())
       throw std::invalid_argument("only `batch` is spread over MPI ranks: start `" + name +
                                   "` without mpirun (or with -n 1)");

@@ -2,11 +2,15 @@
 
 #include <iostream>
 
+#include "python_commands.hpp"
+
 #ifdef NONHOLO_WITH_MPI
 #include "mpi_main.hpp"
 #endif
 
 int main(int argc, char** argv) {
+  int exit_code = 0;
+  if (nonholo::scenarios::run_python_command(argc, argv, &exit_code)) return exit_code;
 #ifdef NONHOLO_WITH_MPI
   if (nonholo::scenarios::launched_by_mpi()) return nonholo::scenarios::mpi_main(argc, argv);
 #endif

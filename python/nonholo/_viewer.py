@@ -1,0 +1,5 @@
+"""`nonholo view` / nonholo.view: placeholder, being written."""
+
+
+def view(result, path, **options):
+    raise NotImplementedError("nonholo.view is not written yet")
