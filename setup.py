@@ -75,6 +75,12 @@ class CMakeBuild(build_ext):
         target.parent.mkdir(parents=True, exist_ok=True)
         self.copy_file(str(module), str(target))
         self.copy_file(str(stub), str(target.with_name("_core.pyi")))
+        # nonholo view's three.js for 3-D scenes, downloaded by the CMake configure (python/CMakeLists.txt;
+        # absent offline: the viewer then says so for 3-D scenes)
+        for name in ("three.module.min.js", "three.LICENSE"):
+            if (package / "viewer" / name).is_file():
+                (target.parent / "viewer").mkdir(parents=True, exist_ok=True)
+                self.copy_file(str(package / "viewer" / name), str(target.parent / "viewer" / name))
 
 
 # setuptools' scratch (build/, *.egg-info) out of the source tree's python/: into the reused CMake
@@ -87,7 +93,7 @@ setup(
     version=version(),
     package_dir={"": "python"},
     packages=["nonholo"],
-    package_data={"nonholo": ["py.typed"]},  # _core's module and stub come from build_ext
+    package_data={"nonholo": ["py.typed", "viewer/viewer.html"]},  # _core's module and stub come from build_ext
     ext_modules=[Extension("nonholo._core", sources=[])],
     cmdclass={"build_ext": CMakeBuild},
     options={"build": {"build_base": scratch}, "egg_info": {"egg_base": scratch}},

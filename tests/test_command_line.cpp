@@ -261,7 +261,7 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"run", "sleigh", "--frobnicate"}, "frobnicate");
   expect_failure({"run"}, "scene");
   expect_failure({}, "subcommand");
-  expect_failure({"fly"}, "unknown command 'fly' (commands: run, batch, list, wp)");
+  expect_failure({"fly"}, "unknown command 'fly' (commands: run, batch, list, wp, animate, view)");
   expect_failure({"run", "sleigh_chain", "--hitch", "rigid"}, "unknown hitch mode 'rigid' (valid: oneform, holonomic)");
   expect_failure({"run", "sleigh", "--method", "euler"},
                  "unknown method 'euler' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner, arkode-fehlberg8)");

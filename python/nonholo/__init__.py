@@ -449,12 +449,13 @@ def load(path: _Path) -> Union[RunResult, BatchResult]:
     raise ValueError("load(%r): expected a .csv, .h5 or .hdf5 file written by nonholo" % text)
 
 
-def animate(result: Union[RunResult, _Path], path: _Path, **options: Any) -> None:
+def animate(result: Union[RunResult, _Path], path: _Path, **options: Any) -> Any:
     """A GIF or MP4 (by path's extension) of a run: a RunResult or a run's output file (CSV or
     HDF5). Options as `nonholo animate --help` lists them, as keywords (fps=, width=, follow=,
-    trail=). Needs matplotlib, and Pillow for GIF or ffmpeg for MP4."""
+    trail=, frames=). Needs matplotlib, and Pillow for GIF or ffmpeg for MP4. Returns what was
+    drawn: the frames' indices and times, the image size and the view's limits."""
     from ._animation import animate as _animate
-    _animate(result, path, **options)
+    return _animate(result, path, **options)
 
 
 def view(result: Union[RunResult, _Path], path: _Path, **options: Any) -> None:
