@@ -27,7 +27,6 @@ constexpr int kInterruptedExit = 130;
 constexpr int kInaccurateExit = 3;  // the run finished, its results are written, but not to --accuracy
 namespace {
 
-constexpr const char* kCommands = "run, batch, list, wp, animate, view";
 constexpr const char* kRunHelp = "integrate one scene and print a summary line";
 constexpr const char* kBatchHelp = "integrate many trajectories of one scene in parallel";
 // Where --help sends a reader next (the docs live in the repository).
@@ -313,8 +312,11 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
   // CLI11 would only say that a subcommand is required; name the unknown word instead.
   if (argc > 1 && argv[1][0] != '-') {
     const std::string word = argv[1];
-    if (word != "run" && word != "batch" && word != "list" && word != "wp" && word != "animate" && word != "view") {
-      err << "nonholo: unknown command '" << word << "' (commands: " << kCommands << ")" << std::endl;
+    std::string commands;
+    for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; }))
+      commands += (commands.empty() ? "" : ", ") + command->get_name();
+    if (app.get_subcommands([&](const CLI::App* command) { return command->get_name() == word; }).empty()) {
+      err << "nonholo: unknown command '" << word << "' (commands: " << commands << ")" << std::endl;
       return 1;
     }
   }
