@@ -192,18 +192,16 @@ def help_blocks():
     return dict(re.findall(r"<!-- command: (nonholo[a-z ]*--help) -->\n```text\n(.*?)```\n<!-- end command -->", text, re.S))
 
 
-def test_the_help_blocks_are_the_programs():
+def test_every_subcommand_has_its_help_block():
+    # That each block is what the program prints now is Docs.ShownOutputsAreCurrent's check
+    # (tools/readme_numbers.py); a missing block only this test sees.
     blocks = help_blocks()
     done = cli("--help")
     subcommands = re.findall(r"^  ([a-z]+)  ", done.stdout.split("Subcommands:")[1], re.M)
-    assert len(subcommands) >= 4, done.stdout
+    assert len(subcommands) >= 6, done.stdout
     for command in ["nonholo --help"] + [f"nonholo {s} --help" for s in subcommands]:
         assert command in blocks, f"docs/reference/cli.md has no block for `{command}`"
-        done = cli(*command.split()[1:])
-        assert done.returncode == 0, done.stderr
-        # The usage line names the program as it was started; the page shows `nonholo`.
-        now = re.sub(r"^Usage: \S+", "Usage: nonholo", done.stdout, flags=re.M)
-        assert now == blocks[command], f"`{command}` prints something else than docs/reference/cli.md shows"
+        assert cli(*command.split()[1:]).returncode == 0, command
 
 
 def scenes_of_list():
