@@ -9,7 +9,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "../core/src/rigid/drift.hpp"  // the drift alone (in-tree benchmark)
+#include "step/rigid/drift.hpp"  // the drift alone (nonholo_private_headers)
 
 #include <algorithm>
 #include <string>

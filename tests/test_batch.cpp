@@ -25,7 +25,7 @@
 #include <cmath>
 #include <thread>
 
-#include "../scenarios/src/progress.hpp"
+#include "run/progress.hpp"
 #include "support/bitwise_equal.hpp"
 #include "support/expect_error.hpp"
 #include "support/run_cli.hpp"

@@ -1,4 +1,4 @@
-// The fused chain step (core/src/chain_sweep.cpp) against the step built from separate passes
+// The fused chain step (core/src/step/chain/chain_sweep.cpp) against the step built from separate passes
 // around CHOLMOD (rattle.cpp's general path) on the same states; its diagnostics against
 // diagnose(); its failures; and the element API's checks (nonholo/elements.hpp).
 #include <nonholo/diagnostics.hpp>

@@ -24,7 +24,7 @@
 #include <limits>
 #include <random>
 
-#include "../core/src/restart_internal.hpp"
+#include "step/restart_internal.hpp"
 
 namespace nonholo {
 namespace {

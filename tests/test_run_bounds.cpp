@@ -1,4 +1,4 @@
-// The bounds every run is held to, whatever the method and order (scenarios/src/run_checks.hpp):
+// The bounds every run is held to, whatever the method and order (scenarios/src/run/run_checks.hpp):
 // the energy balance of composed steps and of the baselines against Gregory's work integral,
 // the relative residual, the hitch gap against the lever arms, and coordinates whose step is
 // below their ulp. Each refused case ended status=ok before these checks (issue 23).
@@ -12,7 +12,7 @@
 #include <initializer_list>
 #include <string>
 
-#include "../scenarios/src/run_checks.hpp"
+#include "run/run_checks.hpp"
 #include "support/run_cli.hpp"
 
 namespace nonholo {

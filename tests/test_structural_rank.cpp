@@ -12,7 +12,7 @@
 #include <algorithm>
 #include <random>
 
-#include "../core/src/structural_rank.hpp"
+#include "model/structural_rank.hpp"
 #include "support/expect_error.hpp"
 
 namespace nonholo {

@@ -1,3 +1,5 @@
+// The dynamic schedule's counter (claim_counter.hpp): a long in an MPI window on the root rank, claimed with
+// MPI_Fetch_and_op under a passive-target lock.
 #include "claim_counter.hpp"
 
 namespace nonholo::detail {

@@ -1,3 +1,5 @@
+// ensemble_for (nonholo/mpi_ensemble.hpp): jobs over the ranks of a duplicated communicator, in static shares
+// or claimed in chunks from a counter on the root, threads within each rank, items gathered on the root.
 #include <nonholo/mpi_ensemble.hpp>
 
 #include <nonholo/batch.hpp>

@@ -1,3 +1,5 @@
+// ensemble_for's items from every rank to the root (gather.hpp): packed per rank, sent in pieces of 1 GiB,
+// placed by index with a check that each index comes back exactly once.
 #include "gather.hpp"
 
 #include <algorithm>

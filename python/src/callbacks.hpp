@@ -4,7 +4,7 @@
 // (the library swaps and reuses its buffers: a view kept by the callable would change under
 // it) and checks the result's length. A Python exception or a bad result becomes a
 // CallbackError naming the callback: a step turns it into Status::CallbackFailed with that text
-// (core/src/callback_guard.hpp), a set-up call (start, diagnose) raises the original exception.
+// (core/src/base/callback_guard.hpp), a set-up call (start, diagnose) raises the original exception.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 

@@ -1,5 +1,6 @@
 // nonholo._core: the C++ library as a Python module. bind_core.cpp holds the library's own API
-// (ModelBuilder, Model, Workspace, State, the step), bind_run.cpp the scenes and the
+// (bind_options.cpp, bind_model.cpp, bind_stepping.cpp: ModelBuilder, Model, Workspace, State,
+// the step), bind_run.cpp the scenes and the
 // command-line tool's run and batch; nonholo/__init__.py puts the friendly front on them.
 #include <nonholo/version.hpp>
 

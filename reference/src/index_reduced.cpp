@@ -1,3 +1,5 @@
+// The index-reduced equations of a Model (index_reduced.hpp): the right-hand side with lambda, the projection
+// onto the constraints, and the energy, residual and gap of a state y.
 #include <nonholo/reference/index_reduced.hpp>
 
 #include <nonholo/dynamics.hpp>

@@ -1,3 +1,5 @@
+// The reference integrators (integrators.hpp): fixed-step RK4 and ARKODE's explicit pairs through ARKStep,
+// their names and options, and checkpoints (RK4 only).
 #include <nonholo/reference/integrators.hpp>
 
 #include <arkode/arkode_arkstep.h>

@@ -1,6 +1,9 @@
+// The `nonholo` command line (<nonholo/scenarios/command_line.hpp>): run, batch, wp, list and
+// their options parsed with CLI11 into RunConfig and BatchConfig, the summary printed, exit codes.
 #include <nonholo/scenarios/command_line.hpp>
 
 #include <nonholo/scenarios/batch.hpp>
+#include <nonholo/scenarios/interrupt.hpp>
 #include <nonholo/scenarios/run.hpp>
 #include <nonholo/scenarios/work_precision.hpp>
 
@@ -8,8 +11,6 @@
 
 #include <CLI/CLI.hpp>
 #include <unistd.h>
-
-#include "../src/interrupt.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,3 +1,5 @@
+// The `nonholo` executable: animate and view go to Python, a process mpirun started to mpi_main, the rest to
+// run_command_line (<nonholo/scenarios/command_line.hpp>).
 #include <nonholo/scenarios/command_line.hpp>
 
 #include <iostream>

@@ -1,3 +1,5 @@
+// `mpirun nonholo batch` (mpi_batch.hpp): the ranks agree on one command in one reduction (naming the first
+// line that differs), then run the trajectories with ensemble_for; a later failure aborts every rank.
 #include "mpi_batch.hpp"
 
 #include <nonholo/mpi_ensemble.hpp>

@@ -1,3 +1,5 @@
+// The command line under mpirun (mpi_main.hpp): a launcher recognised by its environment, MPI initialised,
+// the command run on every rank with rank 0's output only, MPI finalised.
 #include "mpi_main.hpp"
 
 #include <nonholo/scenarios/command_line.hpp>

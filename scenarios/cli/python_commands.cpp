@@ -1,3 +1,5 @@
+// `nonholo animate` and `nonholo view` (python_commands.hpp): `python3 -m` their module, spawned with the
+// package on PYTHONPATH, its exit code passed on.
 #include "python_commands.hpp"
 
 #include <spawn.h>

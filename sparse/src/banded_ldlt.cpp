@@ -1,3 +1,5 @@
+// The Banded backend (banded_ldlt.hpp): LDL^T of a banded C in band storage, factorised whole or row by row
+// as the fused chain step streams it, and Auto's test of the band (half_bandwidth, band_is_compact).
 #include <nonholo/sparse/banded_ldlt.hpp>
 
 #include <nonholo/sparse/structure.hpp>

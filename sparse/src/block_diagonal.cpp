@@ -1,3 +1,5 @@
+// BlockDiagonal (block_diagonal.hpp): blocks appended to its lean storage, entries, products and the inverse
+// (exact reciprocals when diagonal, else a symmetrised Cholesky inverse of each block).
 #include <nonholo/sparse/block_diagonal.hpp>
 
 #include <Eigen/Cholesky>

@@ -1,3 +1,5 @@
+// The block-diagonal backend (block_llt.hpp): a dense in-place Cholesky of each connected block of C, and a
+// division per row when every block has one row.
 #include "block_llt.hpp"
 
 #include <cmath>

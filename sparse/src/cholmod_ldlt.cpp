@@ -1,3 +1,5 @@
+// The CHOLMOD backends (cholmod_ldlt.hpp): simplicial LDL^T of P C P^T analysed once, refactorised in place
+// every step and solved with cholmod_solve2; CHOLMOD's statuses become a FactorStatus and a message.
 #include "cholmod_ldlt.hpp"
 
 #include <cholmod.h>

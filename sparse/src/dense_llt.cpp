@@ -1,3 +1,5 @@
+// The dense backend (dense_llt.hpp): Eigen's Cholesky of a small C, of fixed size for 1 to 4 rows, with the
+// pivots recomputed from the factor so that a breakdown is located.
 #include "dense_llt.hpp"
 
 #include <Eigen/Cholesky>

@@ -1,3 +1,5 @@
+// What the backends share (factorization.hpp): the names of statuses and backends, Auto's choice of backend
+// from C's structure, the pivot check every factorisation ends with, and make_factorization.
 #include <nonholo/sparse/factorization.hpp>
 
 #include <cmath>

@@ -1,3 +1,5 @@
+// C = A W A^T for a fixed pattern of A (gram_assembler.hpp): C's pattern and the index map of its products
+// built once (a faster construction for diagonal W), then assemble() every step.
 #include <nonholo/sparse/gram_assembler.hpp>
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// Structural facts about C's pattern (structure.hpp): its validation, its diagonal blocks (union-find over
+// its entries) and the envelope of its natural order.
 #include <nonholo/sparse/structure.hpp>
 
 #include <algorithm>

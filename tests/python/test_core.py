@@ -1,4 +1,4 @@
-"""The low-level API from Python (python/src/bind_core.cpp): models built from Python against
+"""The low-level API from Python (python/src/bind_*.cpp): models built from Python against
 exact solutions and the C++ scenes, errors, failed steps, references and the GIL."""
 import _thread
 import csv

@@ -1,4 +1,4 @@
-"""`nonholo run|batch --out FILE.h5` (scenarios/src/hdf5_output.cpp) read with h5py: the CSV's
+"""`nonholo run|batch --out FILE.h5` (scenarios/src/output/hdf5_output.cpp) read with h5py: the CSV's
 numbers to the last digit, the attributes, /p and /gap against invariants, and a readable file
 after a failed step and after Ctrl-C."""
 import os

@@ -106,10 +106,10 @@ def test_every_key_a_batch_prints_and_every_column_of_its_table_are_documented(t
 
 def source_keys():
     """Every key the summary line can have, read from the code that prints it."""
-    run = (ROOT / "scenarios/src/run.cpp").read_text()
+    run = (ROOT / "scenarios/src/output/summary_fields.cpp").read_text()
     body = run[run.index("RunSummary::fields() const"):run.index("std::string RunSummary::line() const")]
     keys = re.findall(r'\b(?:text|number|integer)\("([a-z_]+)"', body)
-    batch = (ROOT / "scenarios/src/batch.cpp").read_text()
+    batch = (ROOT / "scenarios/src/batch/batch.cpp").read_text()
     body = batch[batch.index("BatchResult::line() const"):]
     body = body[:body.index("\n}\n")]
     keys += re.findall(r'" ([a-z_]+)="', body)
@@ -121,7 +121,7 @@ def test_every_key_the_code_can_print_is_documented():
     assert len(keys) >= 30 and "status" in keys and "ranks" in keys, "update source_keys(): " + str(keys)
     documented, _ = summary_keys_documented()
     missing = [k for k in keys if k not in documented]
-    assert not missing, f"summary keys in scenarios/src/run.cpp or batch.cpp not in docs/reference/summary.md: {missing}"
+    assert not missing, f"summary keys in scenarios/src/output/summary_fields.cpp or batch.cpp not in docs/reference/summary.md: {missing}"
     stale = sorted(documented - set(keys) - {"ok"})
     assert not stale, f"docs/reference/summary.md documents keys the code does not print: {stale}"
 
@@ -132,7 +132,7 @@ def statuses_in_code():
     body = header[header.index("enum class Status {"):]
     body = body[:body.index("};")]
     enumerators = re.findall(r"^\s*([A-Z][A-Za-z]+),", body, re.M)
-    texts = dict(re.findall(r'case Status::([A-Za-z]+): return "([a-z-]+)";', (ROOT / "core/src/status.cpp").read_text()))
+    texts = dict(re.findall(r'case Status::([A-Za-z]+): return "([a-z-]+)";', (ROOT / "core/src/base/status.cpp").read_text()))
     return [(e, texts.get(e)) for e in enumerators]
 
 
@@ -151,7 +151,7 @@ def test_every_status_is_documented_with_its_text():
     assert len(code) >= 25 and code[0] == ("Ok", "ok"), code
     table = status_table()
     for enumerator, text in code:
-        assert text, f"Status::{enumerator} has no text in core/src/status.cpp"
+        assert text, f"Status::{enumerator} has no text in core/src/base/status.cpp"
         assert text in table, f"status {text} (Status::{enumerator}) is not in docs/reference/statuses.md"
         assert table[text][0] == enumerator, (text, table[text])
     assert set(table) == {text for _, text in code}, "docs/reference/statuses.md lists statuses the code does not have"

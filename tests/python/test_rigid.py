@@ -1,4 +1,4 @@
-"""3-D rigid bodies from Python (python/src/bind_core.cpp): models built with add_rigid_body and
+"""3-D rigid bodies from Python (python/src/bind_model.cpp): models built with add_rigid_body and
 the elements on rigid bodies, checked against invariants (the post-momentum energy, the
 constraints, unit quaternions, a declared symmetry's momentum map), independent solutions
 (RK4 of the Suslov top's equations, motions exact for the scheme) and the same model written

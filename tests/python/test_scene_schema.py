@@ -1,4 +1,4 @@
-"""docs/scene.schema.json against the scene-file parser (scenarios/src/scene_file.cpp), through the
+"""docs/scene.schema.json against the scene-file parser (scenarios/src/scenes/file/), through the
 command-line tool (NONHOLO_CLI, set by CTest).
 
 - Every example in examples/scenes/ validates, and runs.
@@ -22,7 +22,7 @@ from support import cli, without_timings
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCHEMA_PATH = ROOT / "docs" / "scene.schema.json"
-PARSER_SOURCE = ROOT / "scenarios" / "src" / "scene_file.cpp"
+PARSER_SOURCES = sorted((ROOT / "scenarios" / "src" / "scenes" / "file").glob("*.cpp"))
 EXAMPLES = sorted((ROOT / "examples" / "scenes").glob("*.json"))
 
 
@@ -398,9 +398,15 @@ def test_the_generated_maximal_scene_uses_every_key_and_runs_as_the_minimal_one(
     assert lines[0] == lines[1], "a default of the schema is not the parser's"
 
 
+def parser_source():
+    """The parser's code: the files of scenarios/src/scenes/file/ together."""
+    assert PARSER_SOURCES, "no parser sources found: update PARSER_SOURCES"
+    return "\n".join(path.read_text() for path in PARSER_SOURCES)
+
+
 def parser_key_sets():
     """The key lists of the parser: every brace list of string literals it checks keys against."""
-    source = PARSER_SOURCE.read_text()
+    source = parser_source()
     lists = re.findall(r'keys\([^;]*?\{((?:\s*"[a-z_]+"\s*,?)+)\}\)', source)
     lists += re.findall(r'k(?:Planar|Rigid)Keys\{((?:\s*"[a-z_]+"\s*,?)+)\}', source)
     return [set(re.findall(r'"([a-z_]+)"', group)) for group in lists]
@@ -414,7 +420,7 @@ def test_the_parsers_keys_and_type_names_are_the_schemas():
         assert keys in schema, f"the parser checks keys {sorted(keys)}; no object of the schema allows exactly these"
     assert set().union(*parser) == set().union(*schema)
     known = dict(re.findall(r"unknown (body|constraint|coupling|force) type '\" \+ type \+\s*\"' \(known: ([a-z_, ]+)\)",
-                            PARSER_SOURCE.read_text()))
+                            parser_source()))
     assert set(known) == {"body", "constraint", "coupling", "force"}, known
     enum = {"constraint": SCHEMA["$defs"]["constraint"]["properties"]["type"]["enum"],
             "coupling": SCHEMA["$defs"]["coupling"]["properties"]["type"]["enum"],

@@ -1,3 +1,4 @@
+// The dense, independent re-implementation of the scheme (dense_reference.hpp).
 #include "support/dense_reference.hpp"
 
 namespace nonholo::testing {

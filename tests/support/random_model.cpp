@@ -1,3 +1,4 @@
+// Random models for cross-checks (random_model.hpp).
 #include "support/random_model.hpp"
 
 #include <nonholo/model_builder.hpp>

@@ -28,7 +28,7 @@
 /// nonholo::scenarios.
 namespace nonholo {
 namespace detail {
-struct ElementSet;  // core/src/element_set.hpp
+struct ElementSet;  // core/src/model/element_set.hpp
 }
 
 /// @enum BodyKind

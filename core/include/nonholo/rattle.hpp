@@ -3,6 +3,9 @@
 /// The reflection integrator of Ferraro, Iglesias and Martin de Diego for a constant metric:
 /// the explicit nonholonomic RATTLE of docs/design.md §2, one factorisation of
 /// C = mu M^-1 mu^T per step. With f = 0 it is exactly p_{k+1/2} = (P - Q)*_{q_k} p_{k-1/2}.
+/// One method, two names: "the reflection method" in the docs, on the command line and in Python,
+/// RATTLE (the step it computes) in the code: rattle.hpp, RattleOptions, core/src/step/rattle.cpp
+/// (docs/layout.md).
 #include <nonholo/model.hpp>
 #include <nonholo/rattle_options.hpp>
 #include <nonholo/state.hpp>

@@ -154,7 +154,7 @@ class alignas(128) Workspace {
   }
   ///@}
 
-  // --- the fused chain step (core/src/chain_sweep.cpp) -----------------------------------
+  // --- the fused chain step (core/src/step/chain/chain_sweep.cpp) -----------------------
   /// Whether step() streams this model body by body: a chain of elements on the banded backend.
   bool fused() const { return banded_ != nullptr && chain_; }
   sparse::BandedLdlt* banded() { return banded_; }  ///< the factorisation when it is banded, else nullptr

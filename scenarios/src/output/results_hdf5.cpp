@@ -1,7 +1,7 @@
 // A run's HDF5 output read back (results.hpp).
 #include <nonholo/scenarios/results.hpp>
 
-#include "../hdf5_util.hpp"
+#include "output/hdf5_util.hpp"
 
 #include <stdexcept>
 

@@ -1,5 +1,5 @@
 // The XDMF sidecar (xdmf.hpp): where the centres sit in /q, and one grid per frame.
-#include "xdmf.hpp"
+#include "output/xdmf.hpp"
 
 #include <charconv>
 #include <cstdio>

@@ -4,7 +4,7 @@
 /// body by body: half-bandwidth kd = 4), in band storage, without CHOLMOD (docs/design.md §7).
 /// Row r of the band holds C(r, r-kd .. r) before factorisation and L(r, r-kd .. r-1), 1/D(r)
 /// after (a multiplication in the solves instead of a division), so that a caller can also fill and eliminate it one row at a time while it streams
-/// over the bodies (the fused chain step, core/src/chain_sweep.cpp): eliminate_row() then
+/// over the bodies (the fused chain step, core/src/step/chain/chain_sweep.cpp): eliminate_row() then
 /// forward_row() per row, back_substitute() at the end. No allocation after construction.
 #include <nonholo/sparse/factorization.hpp>
 

@@ -1,0 +1,121 @@
+#pragma once
+// A model's local constraint elements (nonholo/elements.hpp) and what build() derives from
+// them: the one-form values, bias and gaps in the model's row order, the springs' potential
+// and the thrusts' forces (the general callbacks every integrator understands), and, when
+// the rows run body by body, the per-body layout of the fused chain step (chain_sweep.cpp).
+#include <nonholo/elements.hpp>
+#include <nonholo/model.hpp>
+#include <nonholo/types.hpp>
+
+#include <vector>
+
+namespace nonholo::detail {
+
+// Where a row of mu comes from.
+struct ElementRow {
+  enum Kind : unsigned char { Knife, HitchX, HitchY, BodyAxis, SpaceAxis, Ball, Disk, Rod } kind;
+  int element;  // index into the element's list (knife_edges, hitches, body_axes, ...)
+  // The row's place in its element: a ball's and a disk's rows 0 (x), 1 (y), 2 (height).
+  unsigned char part = 0;
+  // Whether the row is the gradient of a gap (hitches, a ball's and a disk's height, rods).
+  bool holonomic() const {
+    return kind == HitchX || kind == HitchY || kind == Rod || ((kind == Ball || kind == Disk) && part == 2);
+  }
+  bool rigid() const { return kind >= BodyAxis; }  // on rigid bodies (rigid_elements.cpp); Rod: on centres
+};
+
+// One body of a chain as the fused step streams it: its inverse mass, the knife edge on it
+// (flag 1), the hitch from it (rear) to the next body (front) (flag 2, d on this body, f on
+// the next), and the springs joining it to the next body: with D = theta_b - theta_{b+1},
+// sum_i k_i/2 (D - r_i)^2 = k/2 D^2 - kr D + krr/2 (k, kr, krr: sums of k_i, k_i r_i, k_i r_i^2).
+struct ChainBody {
+  double wx, wy, wt;  // diagonal of M^-1
+  double a, d, f, k, kr, krr;
+  int flags;
+};
+inline constexpr int kChainKnife = 1, kChainHitch = 2;
+
+// The chain's bodies as the fused passes read them. When every body but the last carries
+// the same data bit for bit, as in generated chains, the passes read chain[0] and the last
+// entry, which stay in L1, and stream only the state, not 80 B of element data a body per
+// pass (some 17% of a holonomic step's traffic at 10^6 bodies).
+struct ChainBodies {
+  const ChainBody* data;
+  int count;
+  int stride;  // 1, or 0 when uniform
+  const ChainBody& operator[](int b) const { return data[b + 1 < count ? b * stride : count - 1]; }
+  int size() const { return count; }
+};
+
+struct ElementSet {
+  std::vector<KnifeEdge> knife_edges;
+  std::vector<Hitch> hitches;
+  std::vector<TorsionalSpring> springs;
+  std::vector<Thrust> thrusts;  // sorted by body in build()
+  // On rigid bodies (and rods on any centres): rigid_elements.cpp evaluates them.
+  std::vector<BodyAxisConstraint> body_axes;
+  std::vector<SpaceAxisConstraint> space_axes;
+  std::vector<RollingBall> balls;
+  std::vector<RollingDisk> disks;
+  std::vector<Rod> rods;
+  std::vector<BodyTorque> torques;
+  std::vector<BodyForce> body_forces;
+  bool has_gravity = false;
+  double gravity = 0.0;  // g of ModelBuilder::add_gravity
+  std::vector<ElementRow> rows;
+  std::vector<int> value_offset;  // first value of each row (the pattern's row_ptr)
+  std::vector<int> body_offset;   // first velocity entry of each body
+  // First configuration entry of each body; empty when every body's equals body_offset (no
+  // rigid bodies: a million-body chain keeps one array).
+  std::vector<int> body_q_offset;
+  int q_offset(int body) const { return body_q_offset.empty() ? body_offset[body] : body_q_offset[body]; }
+  // The model's rigid bodies and, per body, its index among them (-1: not rigid; empty when
+  // there are none).
+  std::vector<RigidBlock> rigid;
+  std::vector<int> rigid_of;
+  const RigidBlock& rigid_body(int body) const { return rigid[static_cast<std::size_t>(rigid_of[body])]; }
+  // The centre of a body (a rod's end): its first configuration and velocity entries and
+  // dimension (a planar body's x, y; a rigid body's translation).
+  int centre_q(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? q_offset(body) : rigid_body(body).q + 4; }
+  int centre_v(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? body_offset[body] : rigid_body(body).v + 3; }
+  int centre_dim(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? 2 : rigid_body(body).translation; }
+  bool has_rigid_forces() const { return has_gravity || !torques.empty() || !body_forces.empty(); }
+
+  // The chain layout, when every body is planar with a diagonal M^-1 and the rows run body
+  // by body as [knife edge of b][hitch b -> b+1 (x, y)] with springs only between
+  // neighbours: then chain.size() == number of bodies. Empty otherwise.
+  std::vector<ChainBody> chain;
+  // Every body but the last has chain[0]'s data bit for bit: the passes read chain_bodies().
+  bool chain_uniform = false;
+  ChainBodies chain_bodies() const {
+    return {chain.data(), static_cast<int>(chain.size()), chain_uniform ? 0 : 1};
+  }
+  // The half-bandwidth of C in the chain's row order (4 with knife edges and hitches, 0 with
+  // knife edges only), from the layout alone: the banded factor of a chain is set up without
+  // C's pattern (Model::gram is not built for it).
+  int chain_bandwidth = 0;
+  // The common chain of three bodies or more: every body has a knife edge and a hitch to the
+  // next, the last only its knife edge (rows 3b, 3b+1, 3b+2 of body b; kd = 4): the sweep and
+  // the holonomic corrections have closed forms for it.
+  bool hitched_chain = false;
+  // Every body has one knife edge and nothing joins their rows (C is diagonal; springs and
+  // thrusts allowed): the step is one sweep (the single sleigh, the spring chain).
+  bool knife_chain = false;
+
+  // The general callbacks (row order, pattern order of values).
+  void values(ConstVecRef q, VecRef mu) const;
+  void bias(ConstVecRef q, ConstVecRef qdot, VecRef bias) const;
+  void gap(ConstVecRef q, VecRef g) const;
+  double potential(ConstVecRef q) const;
+  void gradient(ConstVecRef q, VecRef grad) const;
+  void force(double t, ConstVecRef q, VecRef out) const;
+};
+
+// The rows, bias, gaps and forces of the elements on rigid bodies and of rods (rigid_elements.cpp).
+// row_values writes the row's values in the order of its columns (ModelBuilder's add_*).
+void rigid_row_values(const ElementSet& set, const ElementRow& row, const double* q, double* values);
+double rigid_row_bias(const ElementSet& set, const ElementRow& row, const double* q, const double* v);
+double rigid_row_gap(const ElementSet& set, const ElementRow& row, const double* q);  // holonomic rows
+void rigid_forces(const ElementSet& set, double t, const double* q, double* out);  // adds to out
+
+}  // namespace nonholo::detail

@@ -1,0 +1,131 @@
+// The per-body drift of models with rigid bodies (drift.hpp).
+#include "step/rigid/drift.hpp"
+
+#include <nonholo/dynamics.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "step/rigid/legendre.hpp"
+
+namespace nonholo::detail {
+namespace {
+
+Vec4 quaternion_at(const double* q) { return {q[0], q[1], q[2], q[3]}; }
+Vec3 vector_at(const double* v) { return {v[0], v[1], v[2]}; }
+
+}  // namespace
+
+int drift(const Model& model, RotationLagrangian rotation, double h, const double* q, const double* p,
+          const double* velocity, double* q_out, double* p_out, int& iterations) {
+  iterations = 0;
+  const auto& rigid = model.rigid_bodies();
+  std::size_t next = 0;  // the next rigid body, in body order
+  for (int b = 0; b < model.num_bodies(); ++b) {
+    const Body& body = model.body(b);
+    if (body.kind != BodyKind::Rigid) {
+      for (int i = 0; i < body.size; ++i) {
+        q_out[body.q_offset + i] = q[body.q_offset + i] + h * velocity[body.offset + i];
+        if (p_out) p_out[body.offset + i] = p[body.offset + i];
+      }
+      continue;
+    }
+    const RigidBlock& r = rigid[next++];
+    Vec4 w;
+    int taken = 0;
+    const Vec3 p_omega = vector_at(p + r.v);
+    if (!solve_legendre(rotation, r, h, p_omega, w, taken)) return b;
+    iterations = std::max(iterations, taken);
+    const Vec4 turned = compose_normalised(quaternion_at(q + r.q), w);
+    for (int i = 0; i < 4; ++i) q_out[r.q + i] = turned[i];
+    if (p_out) {  // p_Omega <- W^T p_Omega; an isotropic body turns about p_Omega itself: W^T p = p
+      const Vec3 arrived = r.isotropic ? p_omega : rotate_back(w, p_omega);
+      for (int i = 0; i < 3; ++i) p_out[r.v + i] = arrived[i];
+    }
+    for (int i = 0; i < r.translation; ++i) {
+      q_out[r.q + 4 + i] = q[r.q + 4 + i] + h * velocity[r.v + 3 + i];
+      if (p_out) p_out[r.v + 3 + i] = p[r.v + 3 + i];
+    }
+  }
+  return -1;
+}
+
+Status rigid_drift(const Model& model, Workspace& ws, ConstVecRef q, double h, RotationLagrangian rotation,
+                   double t) {
+  const auto& minv = model.inverse_mass();
+  minv.multiply(ws.p_half.data(), ws.velocity.data());
+  int iterations = 0;
+  const int failed = drift(model, rotation, h, q.data(), ws.p_half.data(), ws.velocity.data(), ws.q_next.data(),
+                           ws.p_arrive.data(), iterations);
+  if (failed >= 0) {
+    const Body& body = model.body(failed);
+    const Vec3 omega(ws.velocity[body.offset], ws.velocity[body.offset + 1], ws.velocity[body.offset + 2]);
+    // Moser-Veselov folds at h |Omega| about 1 (sin of the turn per step, for an isotropic body);
+    // the other two turn by about h |Omega| and stop at a quarter turn.
+    const char* limit = rotation == RotationLagrangian::MoserVeselov ? "below about 1" : "below about pi/2";
+    return ws.fail(Status::LegendreNotSolved,
+                   "the discrete Legendre transform (%s) of rigid body %d has no solution in the step from "
+                   "t = %.17g: h |Omega| = %.3g (h = %g, |Omega| = %.3g); it needs h |Omega| %s (a rotation of "
+                   "less than 90 degrees per step): reduce the step size",
+                   to_string(rotation), failed, t, std::abs(h) * omega.norm(), std::abs(h), omega.norm(), limit);
+  }
+  ws.legendre_iterations = std::max(ws.legendre_iterations, iterations);
+  minv.multiply(ws.p_arrive.data(), ws.velocity.data());
+  return Status::Ok;
+}
+
+double previous_potential(const Model& model, RotationLagrangian rotation, double h, ConstVecRef q,
+                          ConstVecRef p_minus, ConstVecRef v_minus, VecRef q_prev) {
+  int iterations = 0;
+  if (drift(model, rotation, -h, q.data(), p_minus.data(), v_minus.data(), q_prev.data(), nullptr, iterations) >= 0)
+    return std::numeric_limits<double>::quiet_NaN();
+  return model.potential(q_prev);
+}
+
+void discrete_momentum(const Model& model, RotationLagrangian rotation, ConstVecRef q0, ConstVecRef q1, double h,
+                       VecRef p) {
+  Vector v = Vector::Zero(model.num_velocities());
+  for (int b = 0; b < model.num_bodies(); ++b) {
+    const Body& body = model.body(b);
+    const int flat = body.kind == BodyKind::Rigid ? body.translation : body.size;
+    const int skip = body.kind == BodyKind::Rigid ? 4 : 0, vskip = body.kind == BodyKind::Rigid ? 3 : 0;
+    for (int i = 0; i < flat; ++i)
+      v[body.offset + vskip + i] = (q1[body.q_offset + skip + i] - q0[body.q_offset + skip + i]) / h;
+  }
+  model.mass().multiply(v.data(), p.data());  // the orientations' entries are 0 so far
+  for (const RigidBlock& r : model.rigid_bodies()) {
+    const Vec4 a = quaternion_at(q0.data() + r.q), b = quaternion_at(q1.data() + r.q);
+    const Vec4 a_conj(a[0], -a[1], -a[2], -a[3]);
+    Vec4 w = quaternion_product(a_conj, b);
+    w /= w.norm();
+    if (w[0] < 0.0) w = -w;  // the same rotation, by the shorter way
+    // A step turns a body by less than a quarter turn (legendre.hpp): a pair further apart is
+    // no step of the method.
+    if (!(w[0] >= std::sqrt(0.5))) {
+      std::ostringstream os;
+      os.precision(4);
+      os << "start: rigid body " << r.body << " turns by " << 2.0 * std::acos(std::min(1.0, w[0])) * 180.0 / M_PI
+         << " degrees from q0 to q1; a step turns a body by less than 90 degrees: take q1 closer to q0 (or a "
+            "smaller h)";
+      throw std::invalid_argument(os.str());
+    }
+    p.segment<3>(r.v) = legendre_momentum(rotation, r, h, w);
+  }
+}
+
+}  // namespace nonholo::detail
+
+namespace nonholo {
+
+void gyroscopic_acceleration(const Model& model, ConstVecRef v, VecRef out) {
+  out.setZero();
+  for (const RigidBlock& r : model.rigid_bodies()) {
+    const detail::Vec3 omega = v.segment<3>(r.v);
+    out.segment<3>(r.v) = r.inverse_inertia * (r.inertia * omega).cross(omega);
+  }
+}
+
+}  // namespace nonholo

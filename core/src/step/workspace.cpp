@@ -1,0 +1,233 @@
+// Workspace (workspace.hpp): buffers sized once and C's backend chosen, mu(q) cached by q, C assembled,
+// factorised and solved with named failures, and the caches a checkpoint keeps.
+#include <nonholo/workspace.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+
+#include "model/element_set.hpp"
+#include "step/chain/chain_sweep.hpp"
+
+namespace nonholo {
+
+Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : model_(&model) {
+  const int n = model.num_velocities(), nq = model.num_configuration(), m = model.num_one_forms();
+  for (Vector* v : {&q_next, &scratch_q, &mu_q_}) v->setZero(nq);
+  for (Vector* v : {&p_half, &p_hat, &p_next, &velocity, &applied, &force_next, &scratch_n, &scratch_n2})
+    v->setZero(n);
+  if (model.has_rigid_bodies()) {
+    p_arrive.setZero(n);
+    gyroscopic.setZero(n);
+    gyroscopic_m.setZero(m);
+  }
+  mu_values.setZero(model.num_one_form_values());
+  // The bias by central differences needs two more copies of mu (dynamics.cpp), the midpoint
+  // DLA one; a model with its own bias (every element model) stepped by reflections none:
+  // 176 MB less for a million-body chain.
+  if (!model.has_analytic_bias() || options.dla_steps) scratch_nnz.setZero(model.num_one_form_values());
+  if (!model.has_analytic_bias()) scratch_nnz2.setZero(model.num_one_form_values());
+  rhs.setZero(m);
+  lambda.setZero(m);
+  scratch_m.setZero(m);
+  gap.setZero(model.num_holonomic());
+  if (m > 0) lambda_s.setZero(m);
+  if (model.num_holonomic() > 0) offset_multiplier.setZero(m);
+  if (m > 0 && model.has_applied_force()) lambda_f.setZero(m);
+  const int maps = static_cast<int>(model.momentum_maps().size());
+  if (m > 0 && maps > 0) {
+    map_directions.setZero(n, maps);
+    for (Vector* v : {&map_probe, &map_rest, &map_linear}) v->setZero(n);
+    map_lambda0.setZero(m);
+    map_lambda1.setZero(m);
+    map_values.setZero(2 * maps);  // J_j, then the scale each is checked against
+    map_span.assign(2 * static_cast<std::size_t>(maps), 0);
+  }
+  if (options.composed_steps) {
+    saved_q.setZero(nq);
+    saved_p.setZero(n);
+    saved_force.setZero(n);
+    saved_lambda.setZero(m);
+  }
+  sparse::Backend backend = options.backend;
+  if (backend == sparse::Backend::Auto && model.is_chain()) backend = sparse::Backend::Banded;
+  // A chain's band is set up from its layout: its C's pattern and index map (Model::gram)
+  // are not built unless another backend is forced.
+  if (m > 0 && model.is_chain() && backend == sparse::Backend::Banded)
+    factor_ = std::make_unique<sparse::BandedLdlt>(m, model.element_set()->chain_bandwidth);
+  else if (m > 0)
+    factor_ = sparse::make_factorization(backend, model.gram().pattern());
+  if (factor_ && factor_->backend() == sparse::Backend::Banded) banded_ = static_cast<sparse::BandedLdlt*>(factor_.get());
+  if (fused()) chain_sincos.setZero(2 * model.num_bodies());
+  if (fused() && model.element_set()->hitched_chain) chain_sincos_prev.setZero(2 * model.num_bodies());
+  // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
+  if (factor_ && !factor_->values_in_place()) c_values.setZero(model.gram().pattern().nnz());
+}
+
+sparse::Backend Workspace::backend() const {
+  return factor_ ? factor_->backend() : sparse::Backend::Auto;
+}
+
+const char* Workspace::backend_name() const {
+  return factor_ ? sparse::to_string(factor_->backend()) : "none";
+}
+
+Status Workspace::evaluate_one_forms(ConstVecRef q) {
+  const int n = model_->num_configuration();
+  if (key_valid_ && std::memcmp(q.data(), mu_q_.data(), sizeof(double) * n) == 0) {
+    if (!mu_valid_) {  // a fused step factorised C(q) without writing mu: it left sin/cos
+      if (sincos_valid_)
+        detail::chain_one_forms_from_sincos(*model_, *this);
+      else  // a holonomic correction since reused chain_sincos for q_{k+1}
+        model_->one_form_values(q, mu_values);
+      mu_valid_ = true;
+    }
+    return Status::Ok;
+  }
+  key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = false;
+  if (model_->num_one_forms() == 0) return Status::Ok;
+#ifndef NDEBUG
+  // Debug builds: a value function that fills too few values leaves NaN, which factorize()
+  // reports with its row and column (release builds check this once, at the start).
+  mu_values.setConstant(std::numeric_limits<double>::quiet_NaN());
+#endif
+  // NaN or Inf in mu reaches a diagonal entry of C, so factorize() finds it; the scan that
+  // names the entry runs only then (one pass less over mu in every step). The key is set only
+  // after the values: a callback that throws leaves no key behind.
+  if (fused()) {  // a chain: sin/cos once per body (the rows' own values take each 2-5 times),
+    // kept for the bias at the same q (one_form_bias): the reference integrators' right-hand
+    // side, the starts and the projections cost what the step's own passes cost
+    detail::chain_sincos_of(*model_, q, chain_sincos);
+    detail::chain_one_forms_from_sincos(*model_, *this);
+  } else {
+    model_->one_form_values(q, mu_values);
+  }
+  mu_q_ = q;
+  key_valid_ = mu_valid_ = true;
+  sincos_valid_ = fused();
+  return Status::Ok;
+}
+
+void Workspace::save_held(OutArchive& a) const {
+  a.tag("workspace");
+  a(key_valid_), a(mu_valid_), a(factor_valid_), a(sincos_valid_);
+  if (key_valid_) a(mu_q_);
+  if (mu_valid_) a(mu_values);
+  if (sincos_valid_) a(chain_sincos);
+  std::vector<double>* numbers = factor_valid_ && factor_ ? factor_->numeric_state() : nullptr;
+  a(numbers != nullptr);
+  if (numbers) a(Eigen::Map<const Vector>(numbers->data(), static_cast<Eigen::Index>(numbers->size())));
+}
+
+void Workspace::load_held(InArchive& a, double min_pivot_ratio) {
+  a.tag("workspace");
+  bool key = false, mu = false, factor = false, sincos = false, numbers = false;
+  a(key), a(mu), a(factor), a(sincos);
+  forget_one_forms();
+  if (key) a(mu_q_);
+  if (mu) a(mu_values);
+  if (sincos) a(chain_sincos);
+  a(numbers);
+  std::vector<double>* state = factor_ ? factor_->numeric_state() : nullptr;
+  if (numbers) {
+    if (!state) throw std::runtime_error("checkpoint: its factorisation is of a banded backend, this run's is not");
+    a(Eigen::Map<Vector>(state->data(), static_cast<Eigen::Index>(state->size())));
+  }
+  key_valid_ = key;
+  mu_valid_ = mu;
+  sincos_valid_ = sincos;
+  if (factor && !numbers) {  // factorise again (the step's own code for these backends), uncounted
+    const long counted = factorizations;
+    const Status s = key && mu ? factorize(min_pivot_ratio) : Status::Ok;
+    factorizations = counted;
+    if (s != Status::Ok) throw std::runtime_error(std::string("checkpoint: the saved state does not factorise: ") + message());
+    factor = key && mu;
+  }
+  factor_valid_ = factor;
+}
+
+bool Workspace::sincos_hold(ConstVecRef q) const {
+  return sincos_valid_ && key_valid_ &&
+         std::memcmp(q.data(), mu_q_.data(), sizeof(double) * model_->num_configuration()) == 0;
+}
+
+Status Workspace::report_non_finite_one_forms() {
+  const auto& pattern = model_->one_form_pattern();
+  for (int r = 0; r < pattern.rows; ++r)
+    for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
+      if (!std::isfinite(mu_values[k]))
+        return fail(Status::NonFiniteOneForms,
+                    "one-form row %d%s, column %d (%s) has value %g: check the model's one-form "
+                    "values at this q, or reduce the step size if the state blew up",
+                    r, row_note(r), pattern.col_idx[k], model_->velocity_names()[pattern.col_idx[k]].c_str(),
+                    mu_values[k]);
+  return fail(Status::NonFiniteOneForms, "%s%s: the state or the one-forms are not finite: reduce the step size",
+              factor_->message(), row_note(factor_->failed_row()));
+}
+
+const char* Workspace::row_note(int row) {
+  const char* label = row >= 0 ? model_->row_label(row).c_str() : "";
+  if (!*label) return "";
+  std::snprintf(row_note_, sizeof row_note_, " (row %d is %s)", row, label);
+  return row_note_;
+}
+
+Status Workspace::factorize(double min_pivot_ratio) {
+  if (!factor_) return Status::Ok;
+  using sparse::FactorStatus;
+  factor_valid_ = false;
+  ++factorizations;
+  FactorStatus s;
+  if (fused()) {  // a chain: its rows straight into the band (chain_passes.cpp)
+    s = detail::factorize_chain(*model_, *this, min_pivot_ratio);
+  } else if (double* in_place = factor_->values_in_place()) {  // CHOLMOD: assemble into its own matrix
+    model_->gram().assemble(mu_values.data(), in_place, factor_->slot_positions());
+    s = factor_->factorize_in_place(min_pivot_ratio);
+  } else {
+    model_->gram().assemble(mu_values.data(), c_values.data());
+    s = factor_->factorize(c_values.data(), min_pivot_ratio);
+  }
+  if (s == FactorStatus::Ok) {
+    factor_valid_ = true;
+    return Status::Ok;
+  }
+  return report_factor_failure(s);
+}
+
+Status Workspace::report_factor_failure(sparse::FactorStatus s) {
+  using sparse::FactorStatus;
+  switch (s) {
+    case FactorStatus::Ok: return Status::Ok;
+    case FactorStatus::NotPositiveDefinite:
+      return fail(Status::DependentOneForms,
+                  "%s%s: remove a redundant constraint, or change the step size if the motion only "
+                  "passes through this configuration",
+                  factor_->message(), row_note(factor_->failed_row()));
+    case FactorStatus::NearlySingular:
+      return fail(Status::NearlyDependentOneForms,
+                  "%s%s: reduce the step size to pass this near-singular configuration (a jackknifing "
+                  "train), or lower min_pivot_ratio if it is meant",
+                  factor_->message(), row_note(factor_->failed_row()));
+    case FactorStatus::NonFinite:
+      return report_non_finite_one_forms();
+    default:
+      return fail(Status::LinearSolverFailure, "%s (%s): free memory or use a smaller model", factor_->message(),
+                  sparse::to_string(s));
+  }
+}
+
+Status Workspace::factorize_at(ConstVecRef q, double min_pivot_ratio) {
+  const Status status = evaluate_one_forms(q);
+  if (status != Status::Ok || factor_valid_) return status;
+  return factorize(min_pivot_ratio);
+}
+
+Status Workspace::solve(const double* b, double* x) {
+  if (!factor_) return Status::Ok;
+  if (factor_->solve(b, x) != sparse::FactorStatus::Ok)
+    return fail(Status::LinearSolverFailure, "%s", factor_->message());
+  return Status::Ok;
+}
+
+}  // namespace nonholo

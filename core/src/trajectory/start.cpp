@@ -1,0 +1,283 @@
+// Consistent initial states (start.hpp): from a velocity projected onto D(q0), or from two points (q0, q1),
+// after checking the inputs and that the model's callbacks fill their outputs.
+#include <nonholo/start.hpp>
+
+#include <nonholo/dynamics.hpp>
+
+#include "step/dynamics_internal.hpp"
+#include "step/rigid/drift.hpp"
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <sstream>
+#include <stdexcept>
+
+namespace nonholo {
+namespace {
+
+// A configuration (n_q entries, `configuration`) or a velocity (n_v): its size and finiteness.
+void check_vector(const char* what, ConstVecRef v, const Model& model, bool configuration) {
+  const int n = configuration ? model.num_configuration() : model.num_velocities();
+  const auto& names = configuration ? model.coordinate_names() : model.velocity_names();
+  if (v.size() != n) {
+    std::ostringstream os;
+    os << "start: expected " << n << " entries in " << what << " (one per "
+       << (model.has_rigid_bodies() ? (configuration ? "configuration entry" : "velocity entry") : "coordinate")
+       << "), got " << v.size();
+    throw std::invalid_argument(os.str());
+  }
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) {
+      std::ostringstream os;
+      os << "start: " << what << "[" << i << "] (" << names[i] << ") is " << v[i];
+      throw std::invalid_argument(os.str());
+    }
+}
+
+// A configuration with each rigid body's quaternion normalised: refused unless its norm is
+// within 1e-6 of 1 (a rotation given by mistake, or not at all, is not silently made one).
+Vector unit_quaternions(const char* what, ConstVecRef q, const Model& model) {
+  Vector out = q;
+  for (const RigidBlock& r : model.rigid_bodies()) {
+    const double norm = q.segment<4>(r.q).norm();
+    if (!(std::abs(norm - 1.0) <= 1e-6)) {
+      const auto& names = model.coordinate_names();
+      std::ostringstream os;
+      os.precision(17);
+      os << "start: " << what << ": the quaternion of rigid body " << r.body << " (" << names[r.q] << ", "
+         << names[r.q + 1] << ", " << names[r.q + 2] << ", " << names[r.q + 3] << ") has norm " << norm
+         << "; give a unit quaternion (w, x, y, z), for example axis_angle_quaternion(axis, angle)";
+      throw std::invalid_argument(os.str());
+    }
+    out.segment<4>(r.q) /= norm;
+  }
+  return out;
+}
+
+void check(Status status, const Workspace& ws, const char* doing) {
+  if (status == Status::Ok) return;
+  throw std::invalid_argument(std::string("start: ") + doing + ": " + to_string(status) + ": " + ws.message());
+}
+
+State allocate_state(const Model& model, double t0, ConstVecRef q0) {
+  State s;
+  s.t = t0;
+  s.q = q0;
+  s.p.setZero(model.num_velocities());
+  s.force.setZero(model.num_velocities());
+  s.lambda.setZero(model.num_one_forms());
+  return s;
+}
+
+void check_time(double t0) {
+  if (!std::isfinite(t0)) {
+    std::ostringstream os;
+    os << "start: initial time t0 = " << t0 << " is not finite";
+    throw std::invalid_argument(os.str());
+  }
+}
+
+// A workspace scratch vector of this size, or (if the workspace has none that size) `local`
+// resized: the checks below reuse the workspace's buffers instead of allocating their own
+// (a million-body chain would otherwise allocate and touch some 150 MB more at its start).
+Vector& sized_buffer(Vector& buffer, Vector& local, Eigen::Index size) {
+  if (buffer.size() == size) return buffer;
+  local.resize(size);
+  return local;
+}
+
+// Each callback, evaluated once at (t0, q0) into NaN-filled output, must fill every entry:
+// one that fills too few values would otherwise leave the previous call's numbers there and
+// go unseen (debug builds also NaN-fill mu before every evaluation, workspace.cpp). The
+// outputs go to the workspace's scratch buffers (clobbered; the one-form cache is untouched).
+void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVecRef q0) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const int n = model.num_velocities();
+  const auto& names = model.velocity_names();
+  auto complain = [](const std::string& what) { throw std::invalid_argument("start: " + what); };
+  Vector local, local2;
+  if (model.num_one_forms() > 0) {
+    // Into the one-form cache itself (forgotten, so the start evaluates mu again): no second
+    // copy of mu is needed (WorkspaceOptions::dla_steps).
+    ws.forget_one_forms();
+    Vector& mu = ws.mu_values;
+    mu.setConstant(nan);
+    model.one_form_values(q0, mu);
+    const auto& pattern = model.one_form_pattern();
+    for (int r = 0; r < pattern.rows; ++r)
+      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
+        if (std::isnan(mu[k]))
+          complain("one_form_values left value " + std::to_string(k) + " (" + model.describe_row(r) + ", column " +
+                   names[pattern.col_idx[k]] + ") unset or NaN at q0: it must fill all " +
+                   std::to_string(pattern.nnz()) + " values, row by row in the order of each row's columns");
+    if (model.has_analytic_bias()) {
+      Vector& bias = sized_buffer(ws.scratch_m, local, model.num_one_forms());
+      Vector& zero = sized_buffer(ws.scratch_n2, local2, n);
+      bias.setConstant(nan);
+      zero.setZero();
+      model.analytic_bias(q0, zero, bias);
+      for (int r = 0; r < model.num_one_forms(); ++r)
+        if (std::isnan(bias[r]))
+          complain("one_form_bias left entry " + std::to_string(r) + " (" + model.describe_row(r) +
+                   ") unset or NaN at q0 with qdot = 0");
+    }
+  }
+  // Symmetry generators: every entry filled, and in D(q0) (mu(q0) is in the workspace's cache).
+  for (const NamedMomentumMap& map : model.momentum_maps()) {
+    if (!map.generator) continue;
+    Vector xi = Vector::Constant(n, nan);
+    map.generator(q0, xi);
+    for (int i = 0; i < n; ++i)
+      if (std::isnan(xi[i]))
+        complain("symmetry '" + map.name + "': its generator left entry " + std::to_string(i) + " (" + names[i] +
+                 ") unset or NaN at q0");
+    const double j_xi = map.map(q0, xi), xi_xi = xi.squaredNorm();
+    if (!(std::abs(j_xi - xi_xi) <= 1e-12 * xi_xi + 1e-300)) {
+      std::ostringstream os;
+      os.precision(17);
+      os << "symmetry '" << map.name << "': its momentum map is not <xi(q), p>: at q0, J(q0, xi) = " << j_xi
+         << " but |xi|^2 = " << xi_xi;
+      complain(os.str());
+    }
+    if (model.num_one_forms() == 0) continue;
+    const auto& pattern = model.one_form_pattern();
+    const double size = xi.lpNorm<Eigen::Infinity>();
+    for (int r = 0; r < pattern.rows; ++r) {
+      double sum = 0.0, row_norm = 0.0;
+      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k) {
+        sum += ws.mu_values[k] * xi[pattern.col_idx[k]];
+        row_norm += std::abs(ws.mu_values[k]);
+      }
+      if (std::abs(sum) > 1e-10 * row_norm * size) {
+        std::ostringstream os;
+        os << "symmetry '" << map.name << "': its generator xi(q0) does not lie in D(q0): " << model.describe_row(r)
+           << " gives mu xi = " << sum << " (a horizontal symmetry's generator satisfies every constraint; declare "
+           << "other conserved quantities with momentum_map)";
+        complain(os.str());
+      }
+    }
+  }
+  if (model.num_holonomic() > 0) {
+    Vector& g = sized_buffer(ws.gap, local, model.num_holonomic());
+    g.setConstant(nan);
+    model.gap(q0, g);
+    for (int j = 0; j < g.size(); ++j)
+      if (std::isnan(g[j]))
+        complain("gap left entry " + std::to_string(j) + " (" + model.describe_row(model.holonomic_rows()[j]) +
+                 ") unset or NaN at q0");
+  }
+  if (model.has_applied_force()) {
+    Vector& f = sized_buffer(ws.applied, local, n);
+    Vector& work = sized_buffer(ws.scratch_n, local2, n);
+    f.setConstant(nan);
+    work.setConstant(nan);
+    model.applied_force(t0, q0, f, work);
+    for (int i = 0; i < n; ++i)
+      if (std::isnan(f[i]))
+        complain(std::string(model.has_external_force() ? "the external force or the potential gradient"
+                                                        : "the potential gradient") +
+                 " left entry " + std::to_string(i) + " (" + names[i] + ") unset or NaN at q0");
+  }
+}
+
+}  // namespace
+
+State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
+                          ConstVecRef v_guess, const StartOptions& options) {
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "start_from_velocity");
+  check_time(t0);
+  check_vector("q0", q0, model, true);
+  check_vector("the velocity guess", v_guess, model, false);
+  const Vector q_unit = unit_quaternions("q0", q0, model);
+  check_callbacks_fill(model, ws, t0, q_unit);
+  State s = allocate_state(model, t0, q_unit);
+
+  model.mass().multiply(v_guess.data(), s.p.data());
+  check(detail::project_momentum(model, ws, s.q, s.p, s.p, options.min_pivot_ratio), ws,
+        "projecting the velocity onto D(q0)");
+
+  // The velocity M^-1 p~_0 is held in s.force until the force itself is computed, and the
+  // workspace's scratch serves below (no state-sized temporaries: a million-body chain's start
+  // would touch 48 MB more).
+  Vector& v = s.force;
+  model.inverse_mass().multiply(s.p.data(), v.data());
+  if (options.multiplier == InitialMultiplier::Continuous)
+    check(detail::constraint_multiplier(model, ws, t0, s.q, v, s.lambda, options.min_pivot_ratio), ws,
+          "computing the continuous multiplier at q0");
+
+  Vector local;
+  Vector& scratch = sized_buffer(ws.scratch_n, local, model.num_velocities());
+  if (model.has_applied_force())
+    model.applied_force(t0, s.q, s.force, scratch);
+  else
+    s.force.setZero();
+  if (model.num_one_forms() > 0) {
+    check(ws.evaluate_one_forms(s.q), ws, "evaluating the one-forms at q0");
+    model.mu_transpose_times(ws.mu_values.data(), s.lambda.data(), scratch.data());
+    s.force += scratch;
+  }
+  return s;
+}
+
+State start_from_two_points(const Model& model, Workspace& ws, double t0, ConstVecRef q0_given,
+                            ConstVecRef q1_given, double h, double tolerance, RotationLagrangian rotation) {
+  const BusyEntry entry(ws.busy_flag());
+  require_held(entry, "start_from_two_points");
+  check_time(t0);
+  check_vector("q0", q0_given, model, true);
+  check_vector("q1", q1_given, model, true);
+  const Vector q0 = unit_quaternions("q0", q0_given, model), q1 = unit_quaternions("q1", q1_given, model);
+  check_callbacks_fill(model, ws, t0, q0);
+  if (!(h > 0.0) || !std::isfinite(h)) {
+    std::ostringstream os;
+    os << "start: step size h = " << h << " must be positive and finite";
+    throw std::invalid_argument(os.str());
+  }
+  State s = allocate_state(model, t0, q0);
+  const int n = model.num_velocities();
+  Vector scratch(n);
+  if (model.has_rigid_bodies()) {  // the discrete Legendre transform of (q0, q1)
+    detail::discrete_momentum(model, rotation, q0, q1, h, s.p);
+  } else {
+    Vector dq = (q1 - q0) / h;
+    model.mass().multiply(dq.data(), s.p.data());
+  }
+  if (model.has_applied_force()) {
+    model.applied_force(t0, s.q, s.force, scratch);
+    s.p -= 0.5 * h * s.force;
+  }
+
+  // (q0, q1) in M0  <=>  mu(q0) M^-1 p~_0 = 0, checked row by row against the row's
+  // scale |mu_a|_1 |M^-1 p~_0|_inf so that the test does not depend on units.
+  if (model.num_one_forms() > 0) {
+    check(ws.evaluate_one_forms(s.q), ws, "evaluating the one-forms at q0");
+    for (int k = 0; k < model.num_one_form_values(); ++k)
+      if (!std::isfinite(ws.mu_values[k])) {
+        std::ostringstream os;
+        os << "start: the one-forms at q0 are not finite (value " << k << " is " << ws.mu_values[k] << ")";
+        throw std::invalid_argument(os.str());
+      }
+    Vector v(n);
+    model.inverse_mass().multiply(s.p.data(), v.data());
+    const double speed = v.lpNorm<Eigen::Infinity>();
+    const auto& pattern = model.one_form_pattern();
+    for (int r = 0; r < pattern.rows; ++r) {
+      double sum = 0.0, row_norm = 0.0;
+      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k) {
+        sum += ws.mu_values[k] * v[pattern.col_idx[k]];
+        row_norm += std::abs(ws.mu_values[k]);
+      }
+      if (std::abs(sum) > tolerance * row_norm * speed) {
+        std::ostringstream os;
+        os << "start: (q0, q1) is not in M0: " << model.describe_row(r) << " gives mu(q0) M^-1 p0 = " << sum
+           << ", more than " << tolerance << " times |mu_" << r << "|_1 |M^-1 p0|_inf = " << row_norm * speed;
+        throw std::invalid_argument(os.str());
+      }
+    }
+  }
+  return s;  // lambda~_0 = 0, force = f(t0, q0)
+}
+
+}  // namespace nonholo

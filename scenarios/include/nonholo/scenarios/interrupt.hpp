@@ -1,0 +1,31 @@
+#pragma once
+/// @file
+/// Ctrl-C during `nonholo run` / `batch`: the handler only sets a flag; the step loops check it
+/// between steps, finish the CSV row they are on, and end with status=interrupted, so the
+/// output stays valid and the summary is printed. Installed by the command-line tool only
+/// (InterruptScope); a library caller's own SIGINT handling is left alone.
+namespace nonholo::scenarios {
+
+/// Whether SIGINT or SIGTERM arrived in an InterruptScope, or request_interrupt() was called.
+bool interrupt_requested();
+/// "SIGINT" (Ctrl-C) or "SIGTERM" (mpirun's, kill's): which one asked.
+const char* interrupt_name();
+/// Asks the step loops to stop, as Ctrl-C does (for tests and for a caller with its own handler).
+void request_interrupt();
+
+/// SIGINT and SIGTERM set the flag while in scope (mpirun turns Ctrl-C into SIGTERM for its
+/// ranks, and a SIGKILL a second later unless it is told to wait: docs/guide/mpi.md); the
+/// previous handlers and a clear flag come back after.
+class InterruptScope {
+ public:
+  InterruptScope();   ///< installs the handlers and clears the flag
+  ~InterruptScope();  ///< puts the previous handlers back and clears the flag
+  InterruptScope(const InterruptScope&) = delete;             ///< one scope, one installation
+  InterruptScope& operator=(const InterruptScope&) = delete;  ///< one scope, one installation
+
+ private:
+  void (*previous_)(int);
+  void (*previous_term_)(int);
+};
+
+}  // namespace nonholo::scenarios

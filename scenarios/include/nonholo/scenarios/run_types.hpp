@@ -1,0 +1,187 @@
+#pragma once
+/// @file
+/// The types of `nonholo run` without its functions: the options (RunConfig), where frames go
+/// (FrameSink) and what a run did (RunSummary). Every room of the scenarios uses them (the
+/// output files write them, checkpoints save them), so they stand apart from run_scene()
+/// (<nonholo/scenarios/run.hpp>); RunSummary::line() and fields() belong to the output.
+#include <nonholo/diagnostics.hpp>
+#include <nonholo/rattle.hpp>
+#include <nonholo/sparse/factorization.hpp>
+#include <nonholo/status.hpp>
+
+#include <atomic>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace nonholo::scenarios {
+
+/// Where a run's frames go besides the CSV (Python's arrays, say): begin() once with the
+/// coordinate names, frame() at t_0 and at every `every`-th step and the last (p: the momentum
+/// the method carries, p~ for the reflection method), end() after the last frame, also when a
+/// step failed. Not owned by the run; called from its thread.
+class FrameSink {
+ public:
+  virtual ~FrameSink() = default;
+  virtual void begin(const std::vector<std::string>& coordinates) = 0;  ///< the names of q's entries
+  /// Called before begin() with the names of p's entries (n_v of them; with 3-D rigid bodies not
+  /// the coordinates': wx0, wy0, wz0, vx0, ...).
+  virtual void velocities(const std::vector<std::string>& names) { (void)names; }
+  virtual void frame(double t, ConstVecRef q, ConstVecRef p, const Diagnostics& d) = 0;  ///< one frame
+  virtual void end() {}  ///< after the last frame
+  /// Polled between steps: true ends the run with status=interrupted, as Ctrl-C does.
+  virtual bool stop_requested() { return false; }
+};
+
+/// The options of `nonholo run` (run_scene()).
+struct RunConfig {
+  std::string scene;  ///< a built-in scene's name, or a scene file (.json)
+  std::vector<std::string> assignments;  ///< NAME=VALUE, applied in order
+  double dt = 0.0;                       ///< 0: the scene's default
+  double t_end = -1.0;                   ///< < 0: the scene's default
+  std::string csv_path;                  ///< empty: no CSV
+  FrameSink* sink = nullptr;             ///< also gets the frames (run_scene only, not batch)
+  /// Read between steps, set from any thread (not owned): true ends the run with status=interrupted,
+  /// as Ctrl-C does; a batch then starts no more trajectories (Python's batch, on Ctrl-C).
+  const std::atomic<bool>* stop = nullptr;
+  long every = 1;                        ///< write every K-th step (and the last)
+  sparse::Backend backend = sparse::Backend::Auto;  ///< the factorisation of C (`--backend`)
+  HitchMode hitch = HitchMode::Holonomic;  ///< reflection: how hitches are kept (`--hitch`)
+  std::string restart = "auto";  ///< see set_restart (restart_options.hpp): auto, 0 or K
+  double restart_tol = 0.0;      ///< RestartOptions::tolerance (0: min(dt^3, 1e-3))
+  int monitor_every = 8;         ///< RestartOptions::monitor_every
+  std::string method = "reflection";  ///< or rk4, arkode-dp5, arkode-verner (6(5)), arkode-fehlberg8 (8(7))
+  int order = 2;                      ///< reflection: 2, or 4 and 6 by composition
+  std::string composition = "auto";   ///< see composition_from_string (composition.hpp)
+  std::string rotation = "moser-veselov";  ///< rigid bodies: see rotation_from_string (rattle_options.hpp)
+  /// Integrate a companion trajectory at dt/2 (ARKODE: tol/100) in the same run and report
+  /// error_estimate (README "Error estimate").
+  bool error_estimate = false;
+  /// The accuracy check (README "Accuracy check"): status=inaccurate when the estimated error in q
+  /// exceeds this fraction of the motion's extent (the widest range a coordinate swept). 0: off.
+  double accuracy = 0.1;
+  bool project = false;  ///< reference methods: project onto the constraints after each step
+  double tol = 1e-8;     ///< ARKODE methods: relative and absolute tolerance; see adaptive
+  /// Reflection: adaptive steps (nonholo/adaptive.hpp; order 2 restarts at every step) aiming at
+  /// an error `tol` in q at t_end; dt is then the output interval, which the steps land on.
+  bool adaptive = false;
+  double horizon = 0.0;  ///< adaptive: the run length the error budget is spread over (0: t_end)
+  std::string command_line;  ///< how the run was asked for (the output files' "command" attribute)
+
+  /// Checkpoints (README "Long runs"): the whole state of the run written to this HDF5 file at
+  /// its end (also when it fails or is interrupted) and, if set, every so many steps or seconds
+  /// (atomically: a crash mid-write keeps the previous one). Empty: none.
+  ///@{
+  std::string checkpoint_path;
+  long checkpoint_every_steps = 0;
+  double checkpoint_every_seconds = 0.0;
+  ///@}
+  /// Continue the run saved in this checkpoint: its options replace this config's, except
+  /// t_end (when >= 0: run on to it), the checkpoint settings above, sink and stop. The output
+  /// file is continued from where the checkpoint left it (rows written after it are dropped).
+  std::string resume_path;
+};
+
+/// One key=value of the summary line, with its value unrounded (the line prints 6 digits).
+struct SummaryField {
+  std::string key;  ///< as the line prints it ("energy_rel_err_max", ...)
+  /// @enum Kind
+  /// Which of number, integer and text holds the value.
+  /// @var Number
+  ///   number
+  /// @var Integer
+  ///   integer
+  /// @var Text
+  ///   text
+  enum Kind { Number, Integer, Text } kind;  ///< which member holds the value
+  double number;  ///< the value of a Number
+  long integer;  ///< the value of an Integer
+  std::string text;  ///< the value of a Text
+};
+
+/// What a run did: the summary line's values (docs/reference/summary.md explains each key).
+struct RunSummary {
+  std::string scene;  ///< the scene's name, or the scene file's path
+  std::string method;  ///< reflection, dla-midpoint, dla-left, rk4, arkode-dp5, ...
+  std::string backend;  ///< the factorisation of C in use (sparse::to_string)
+  std::string hitch;  ///< how holonomic constraints were kept (holonomic, oneform, velocity, projected)
+  std::string restart;  ///< the restart policy in use (reflection), "" for the other methods
+  int order = 0;            ///< reflection: 2, 4, 6 or 8 (0: the other methods)
+  std::string composition;  ///< reflection with order 4, 6: the composition's name
+  int bodies = 0;  ///< bodies in the model
+  Status status = Status::Ok;  ///< how the run ended
+  std::string message;  ///< why the run stopped early
+  long steps = 0;  ///< steps taken (adaptive steps and ARKODE: output intervals)
+  double dt = 0.0;  ///< the step, or the output interval
+  double t_final = 0.0;  ///< the time reached (the line's t_end)
+  double wall_s = 0.0;       ///< whole run: set-up, integration, diagnostics, output
+  double ns_per_step = 0.0;  ///< integration and per-step diagnostics, without set-up or CSV
+  double ns_per_body_step = 0.0;  ///< ns_per_step / bodies
+  /// The largest relative change of the energy of the state, and of the post-momentum's energy.
+  ///@{
+  double energy_rel_err_max = 0.0;
+  double energy_post_rel_err_max = 0.0;
+  ///@}
+  double residual_max = 0.0;  ///< max over the steps of max_a |(mu(q_k) v_k)_a|: absolute
+  /// max_a |(mu v)_a| / (|mu_a|_1 |v|_inf) (run_checks.hpp) at its largest over the start, the
+  /// first step, every 7th and the last: the residual relative to the scale of the row and of
+  /// the velocity, the one the run's bound applies to.
+  double residual_rel_max = 0.0;
+  double gap_max = 0.0;  ///< max over the steps of max_j |g_j(q_k)| (hitches; 0 without)
+  /// Reflection: multiplier restarts, and the largest parasitic amplitude measured (NaN if none).
+  ///@{
+  long restarts = -1;  ///< -1: not applicable (other methods)
+  double parasitic_max = 0.0;
+  ///@}
+  /// Models with external forces: the work they did (NaN in a batch, where it is not summed) and
+  /// the balance error of the energy against it; energy_rel_err_max is then also net of the
+  /// work. The order-2 reflection step: sum_k h F_k^T M^-1 p~_k, its discrete identity, and the
+  /// post-momentum's energy; the other methods and orders: the integral of F^T v by Gregory's
+  /// rule from the step ends (run_checks.hpp), and the energy the method reports.
+  ///@{
+  bool has_work = false;
+  double work = 0.0;
+  double energy_balance_err_max = 0.0;
+  ///@}
+  std::string warning;  ///< what the user should know about a run that ended ok
+  long rhs_evaluations = -1;  ///< reference methods: evaluations of the equations
+  /// Adaptive composed steps (RunConfig::adaptive): the tolerance, the accepted composed steps
+  /// and the rejected pairs (-1: fixed steps). steps counts the output intervals then.
+  ///@{
+  double tol = std::numeric_limits<double>::quiet_NaN();
+  long adaptive_steps = -1;
+  long rejected = -1;
+  ///@}
+  long factorizations = -1;   ///< numeric factorisations of C (-1: not counted)
+  /// The estimated max error in q (max norm). With RunConfig::error_estimate: max over the output
+  /// times of |q - q^|_inf against the companion trajectory q^, scaled by 2^p / (2^p - 1) for a
+  /// fixed-step method of order p (Richardson). Otherwise the in-run accuracy check's estimate
+  /// (nonholo/accuracy.hpp). NaN when not computed (also when the run took no step: refused
+  /// before it, or its first step failed).
+  double error_estimate = std::numeric_limits<double>::quiet_NaN();
+  /// What error_estimate is judged against (the accuracy check): the widest range any coordinate
+  /// swept, and the tolerance (a fraction of it; 0: the check is off). NaN: no check.
+  ///@{
+  double extent = std::numeric_limits<double>::quiet_NaN();
+  double accuracy = std::numeric_limits<double>::quiet_NaN();
+  ///@}
+  /// Explicit fixed-step methods with applied forces: the largest dt / stability limit estimated
+  /// (nonholo/stability.hpp); NaN when not applicable. A run refuses 1 or more, warns from 0.5.
+  double stability_ratio = std::numeric_limits<double>::quiet_NaN();
+  bool has_momentum = false;  ///< the model has momentum maps (momentum_drift_max shows)
+  bool has_error_estimate = false;  ///< asked for (RunConfig::error_estimate): the key shows, nan or not
+  double momentum_drift_max = 0.0;  ///< max over the momentum maps of |J_k - J_0|
+  /// Reflection on a model with 3-D rigid bodies: the rotation Lagrangian, and the most Newton
+  /// iterations a Legendre transform took in the run (-1: not applicable).
+  ///@{
+  std::string rotation;
+  long legendre_iterations_max = -1;
+  ///@}
+
+  /// One line of space-separated key=value pairs: the fields below, numbers to 6 digits.
+  std::string line() const;
+  /// What the line shows, in its order (the keys present depend on the method and the model).
+  std::vector<SummaryField> fields() const;
+};
+
+}  // namespace nonholo::scenarios

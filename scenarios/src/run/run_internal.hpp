@@ -1,0 +1,56 @@
+#pragma once
+// The pieces of `nonholo run` that `nonholo batch` shares: option checking once (prepare_run),
+// then one trajectory at a time from a given set of parameters (integrate_scene).
+#include <nonholo/scenarios/run_types.hpp>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "run/progress.hpp"
+#include "run/runners.hpp"
+
+namespace nonholo::scenarios {
+
+// max that lets a NaN through instead of hiding it (a blown-up trajectory must show).
+inline double worst(double so_far, double value) {
+  return (value != value || value > so_far) ? value : so_far;
+}
+
+struct PreparedRun {
+  SceneInfo info;  // a built-in scene or one read from a file
+  MethodChoice choice;
+  Companion companion;  // --error-estimate
+  double dt = 0.0;
+  double t_end = 0.0;  // the one used (the scene's when the config gave none)
+  long steps = 0;
+  std::string resume;  // checkpoint bytes to continue from (empty: a fresh start)
+};
+
+// Validates the options of `config` (throws std::invalid_argument with the option's name).
+PreparedRun prepare_run(const RunConfig& config);
+
+// Who watches a trajectory and what it should keep besides its summary.
+struct TrajectoryHooks {
+  Progress* progress = nullptr;      // the steps done; restarted when they begin
+  Progress* setup_status = nullptr;  // the phases of the set-up (Progress::status); may be `progress`
+  // Called once the model is built, before the method starts (which may still fail): a batch
+  // takes the coordinate names of its table from it.
+  std::function<void(const Model&)> on_model;
+  bool final_q = false;      // TrajectoryResult::final_q
+  bool final_state = false;  // TrajectoryResult::final_p and the names (`nonholo batch --states`)
+};
+
+// What one trajectory gives back.
+struct TrajectoryResult {
+  RunSummary summary;  // wall_s left 0
+  Vector final_q, final_p;
+  std::vector<std::string> coordinates, velocities;  // the names of final_q's and final_p's entries
+};
+
+// One trajectory of the prepared run with these parameters: the phases of run_loop.hpp (the
+// CSV or HDF5 output if config.csv_path is set). Throws std::invalid_argument on a bad set-up.
+TrajectoryResult integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
+                                 const TrajectoryHooks& hooks = {});
+
+}  // namespace nonholo::scenarios

@@ -1,0 +1,550 @@
+// One trajectory as named phases (run_loop.hpp): set-up, outputs, start or resume, the loop of
+// steps with the bounds each step is held to, the final checkpoint and the verdicts.
+#include "run/run_loop.hpp"
+
+#include <nonholo/scenarios/interrupt.hpp>
+#include <nonholo/scenarios/scene_file.hpp>
+
+#include <nonholo/rattle.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+
+#include "output/batch_row.hpp"
+#include "output/checkpoint/checkpoint_file.hpp"
+#include "output/checkpoint/run_config_archive.hpp"
+#include "run/verdicts.hpp"
+
+namespace nonholo::scenarios {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Relative change, or absolute when the reference is zero.
+// floor: rest_scales' energy, for an initial energy of 0 (or below it).
+double relative_change(double value, double reference, double floor) {
+  const double diff = std::abs(value - reference);
+  const double scale = std::max(std::abs(reference), floor);
+  return scale > 0.0 ? diff / scale : diff;
+}
+
+// The energy error net of the work done by external forces, relative to the largest of the
+// initial energy, the current one and the work (the scales round-off is relative to).
+double balance_error(double energy, double initial, double work, double floor) {
+  const double scale = std::max({std::abs(initial), std::abs(energy), std::abs(work), floor});
+  const double diff = std::abs(energy - initial - work);
+  return scale > 0.0 ? diff / scale : diff;
+}
+
+RestScales rest_scales(const Model& model, double t, ConstVecRef q, double h) {
+  if (!model.has_applied_force()) return {};
+  const int n = model.num_velocities();
+  Vector f(n), scratch(n);
+  model.applied_force(t, q, f, scratch);
+  model.inverse_mass().multiply(f.data(), scratch.data());
+  return {0.5 * h * h * f.dot(scratch), h * scratch.lpNorm<Eigen::Infinity>()};
+}
+
+// The options with the dt and t_end the run uses (for the output files' attributes).
+RunConfig resolved(const RunConfig& config, const PreparedRun& run) {
+  RunConfig c = config;
+  c.dt = run.dt;
+  c.t_end = run.t_end;
+  return c;
+}
+
+// The output files are flushed to disk at least this often (when frames come).
+constexpr double kFlushSeconds = 2.0;
+
+bool finite(const Diagnostics& d) {
+  return std::isfinite(d.energy) && std::isfinite(d.residual) && std::isfinite(d.gap) &&
+         !std::isinf(d.energy_post);  // energy_post is NaN where it is not defined
+}
+
+std::string describe(const Diagnostics& d) {
+  std::ostringstream os;
+  os << "energy " << d.energy << ", energy_post " << d.energy_post << ", residual " << d.residual << ", gap " << d.gap;
+  return os.str();
+}
+
+bool reference_method(const std::string& name) {
+  return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner" || name == "arkode-fehlberg8";
+}
+
+// The order the accuracy check's advice assumes.
+int method_order(const RunConfig& config, const MethodChoice& choice) {
+  if (config.method == "reflection") return choice.rattle.order;
+  return config.method == "rk4" ? 4 : config.method == "dla-left" ? 1 : 2;
+}
+
+}  // namespace
+
+void LoopState::save(OutArchive& a) const {
+  a.tag("loop");
+  a(k), a(t0);
+  scenarios::save(a, summary);
+  a(d0.energy), a(d0.energy_post), a(d0.residual), a(d0.gap), a(power0), a(power);
+  work.save(a);
+  a(rest.energy), a(rest.speed), a(j0), a(lever_arm), a(difference), a(companion_failure), a(output_position);
+  a(seconds);
+}
+
+void LoopState::load(InArchive& a) {
+  a.tag("loop");
+  a(k), a(t0);
+  scenarios::load(a, summary);
+  a(d0.energy), a(d0.energy_post), a(d0.residual), a(d0.gap), a(power0), a(power);
+  work.load(a);
+  a(rest.energy), a(rest.speed);
+  a.resize_into(j0);
+  a(lever_arm), a(difference), a(companion_failure), a(output_position);
+  a(seconds);
+}
+
+RunLoop::RunLoop(const PreparedRun& run, const Parameters& params, const RunConfig& config,
+                 const TrajectoryHooks& hooks)
+    : run_(run), params_(params), config_(config), hooks_(hooks), reflection_(config.method == "reflection") {}
+
+TrajectoryResult RunLoop::run() {
+  set_up();
+  read_loop_state();
+  open_outputs();
+  describe_run();
+  if (run_.resume.empty())
+    start();
+  else
+    resume();
+  loop();
+  close_outputs();
+  judge();
+  return result();
+}
+
+// "setting up sleigh_chain (1000000 bodies): building model...": the body count from the
+// parameters until the model says.
+void RunLoop::set_up() {
+  for (const auto& spec : params_.specs())
+    if (spec.name == "bodies") bodies_ = std::lround(params_["bodies"]);
+  auto status = [this](const char* phase) {
+    if (!hooks_.setup_status) return;
+    std::string line = "setting up " + run_.info.name;
+    if (bodies_ > 0) line += " (" + std::to_string(bodies_) + (bodies_ == 1 ? " body)" : " bodies)");
+    hooks_.setup_status->status(line + ": " + phase + "...");
+  };
+  status("building model");
+  setup_.emplace(run_.info.build(params_));
+  bodies_ = setup_->model.num_bodies();
+  if (hooks_.on_model) hooks_.on_model(setup_->model);
+  const SetupPhase phase = status;
+  try {
+    runner_ = make_runner(*setup_, run_.choice, phase);
+  } catch (const std::invalid_argument& e) {  // a scene file's start: name the file
+    if (!is_scene_file(config_.scene)) throw;
+    throw std::invalid_argument(config_.scene + ": " + e.what());
+  }
+  if (config_.error_estimate) companion_ = make_runner(*setup_, run_.companion.choice, phase);
+}
+
+// A resumed run: the loop's state from the checkpoint (after the options, which prepare_run
+// has read); the output continues where the checkpoint left it.
+void RunLoop::read_loop_state() {
+  if (run_.resume.empty()) return;
+  archive_ = std::make_unique<InArchive>(run_.resume);
+  RunConfig saved;
+  load(*archive_, saved);
+  loop_.load(*archive_);
+}
+
+// --out: CSV, or HDF5 by its extension (hdf5_output.hpp); the caller's sink gets the frames too.
+void RunLoop::open_outputs() {
+  const Model& model = setup_->model;
+  const bool resuming = archive_ != nullptr;
+  if (is_hdf5_path(config_.csv_path))
+    h5_ = resuming ? std::make_unique<Hdf5RunWriter>(config_.csv_path, loop_.output_position)
+                   : std::make_unique<Hdf5RunWriter>(config_.csv_path, resolved(config_, run_), run_.info.name,
+                                                     params_, run_.steps);
+  else if (!config_.csv_path.empty())
+    csv_ = resuming ? std::make_unique<CsvWriter>(config_.csv_path, loop_.output_position)
+                    : std::make_unique<CsvWriter>(config_.csv_path, model.coordinate_names());
+  for (FrameSink* s : {static_cast<FrameSink*>(h5_.get()), config_.sink})
+    if (s) sinks_.push_back(s);
+  for (FrameSink* s : sinks_) {
+    s->velocities(model.velocity_names());
+    s->begin(model.coordinate_names());
+  }
+}
+
+void RunLoop::describe_run() {
+  const Model& model = setup_->model;
+  const MethodChoice& choice = run_.choice;
+  RunSummary& summary = summary_;
+  summary.scene = run_.info.name;
+  summary.method = config_.method;
+  summary.backend = runner_->backend();
+  // The reference methods treat hitch rows as velocity constraints, closed by --project.
+  summary.hitch = reflection_ ? to_string(config_.hitch)
+                              : !reference_method(config_.method) ? "oneform"
+                              : config_.project ? "projected" : "velocity";
+  summary.restart = reflection_ ? restart_spec(choice.rattle.restart) : "";
+  summary.order = reflection_ ? choice.rattle.order : 0;
+  if (reflection_ && choice.rattle.order > 2)
+    summary.composition = to_string(composition_scheme(choice.rattle.order, choice.rattle.composition).composition);
+  summary.restarts = runner_->restarts();
+  if (reflection_ && model.has_rigid_bodies()) summary.rotation = to_string(choice.rattle.rotation);
+  summary.parasitic_max = std::numeric_limits<double>::quiet_NaN();  // until measured
+  // With external forces the energy is not an invariant: the balance against the work is. The
+  // order-2 reflection step has its discrete work-energy identity (docs/design.md section 8); the
+  // other methods and the composed steps (whose multipliers restart) integrate the power.
+  forced_ = model.has_external_force();
+  summary.has_work = forced_;
+  exact_work_ = forced_ && reflection_ && choice.rattle.order == 2 && !model.has_configuration_metric();
+  force_.resize(model.num_velocities());
+  summary.bodies = model.num_bodies();
+  summary.dt = run_.dt;
+  summary.has_momentum = !model.momentum_maps().empty();
+  j_.resize(static_cast<Eigen::Index>(model.momentum_maps().size()));
+}
+
+void RunLoop::start() {
+  const Model& model = setup_->model;
+  const double dt = run_.dt;
+  loop_.d0 = runner_->diagnostics();
+  loop_.power0 = forced_ ? power_now() : 0.0;
+  loop_.power = loop_.power0;
+  loop_.work.start(loop_.power0, dt);
+  loop_.rest = rest_scales(model, runner_->t(), runner_->q(), dt);
+  loop_.t0 = runner_->t();
+  // A velocity at round-off of the rest scale (a body at rest) satisfies no constraint to any
+  // relative accuracy: its relative residual is not judged.
+  speed_floor_ = 64 * std::numeric_limits<double>::epsilon() * loop_.rest.speed;
+  stability_ = std::make_unique<StabilityWatch>(model, run_.choice, dt);
+  precision_ = std::make_unique<PrecisionWatch>(model, speed_floor_);
+  const Diagnostics& d0 = loop_.d0;
+  loop_.j0.resize(static_cast<Eigen::Index>(model.momentum_maps().size()));
+  runner_->momentum_maps(loop_.j0);
+  summary_.residual_max = d0.residual;
+  summary_.residual_rel_max = relative_residual();
+  summary_.gap_max = d0.gap;
+  loop_.lever_arm = hitch_lever_arm(model, runner_->q(), runner_->workspace());
+  write_frame(d0);
+  if (h5_) h5_->flush_to_disk();  // a valid file from the start (HDF5 writes its metadata at a flush)
+  if (!finite(d0)) {
+    summary_.status = Status::NonFiniteState;
+    summary_.message = "the initial state is out of range: " + describe(d0) +
+                       ": check the scene's initial positions and velocities (a speed of 1e155 already "
+                       "overflows the energy)";
+  }
+  if (summary_.status == Status::Ok) summary_.status = stability_->check(*runner_, 0, summary_.message);
+  if (summary_.status == Status::Ok)
+    summary_.status = precision_->check(runner_->q(), runner_->velocity(), dt, 0, summary_.message);
+}
+
+void RunLoop::resume() {
+  const Model& model = setup_->model;
+  speed_floor_ = 64 * std::numeric_limits<double>::epsilon() * loop_.rest.speed;
+  stability_ = std::make_unique<StabilityWatch>(model, run_.choice, run_.dt);
+  precision_ = std::make_unique<PrecisionWatch>(model, speed_floor_);
+  summary_ = loop_.summary;
+  if (summary_.status == Status::Interrupted) {  // what a resume is for
+    summary_.status = Status::Ok;
+    summary_.message.clear();
+  } else if (summary_.status != Status::Ok) {
+    throw std::invalid_argument("--resume " + config_.resume_path + ": the run ended with status=" +
+                                to_string(summary_.status) + " at step " + std::to_string(loop_.k) + " (" +
+                                summary_.message + "): there is nothing to continue");
+  }
+  runner_->load(*archive_);
+  if (companion_) companion_->load(*archive_);
+  stability_->load(*archive_);
+  precision_->load(*archive_);
+  if (!archive_->done()) throw std::runtime_error("checkpoint: bytes left over after the run's state");
+}
+
+void RunLoop::loop() {
+  last_checkpoint_ = last_flush_ = Clock::now();
+  if (hooks_.progress) hooks_.progress->begin_steps();
+  loop_start_ = Clock::now();
+  for (long k = loop_.k + 1; k <= run_.steps && summary_.status == Status::Ok; ++k) {
+    if (stop_requested(k) || watches_fail(k) || !advance(k)) break;
+    measure(k);
+    const bool output = k % config_.every == 0 || k == run_.steps;
+    if (companion_) companion_step(k, output);
+    if (output && (csv_ || !sinks_.empty())) {
+      const auto out_start = Clock::now();
+      write_frame(d_);
+      // On disk every few seconds: a killed run keeps what was written up to the last flush.
+      if ((csv_ || h5_) && std::chrono::duration<double>(out_start - last_flush_).count() >= kFlushSeconds) {
+        if (csv_) csv_->flush_to_disk();
+        if (h5_) h5_->flush_to_disk();
+        last_flush_ = Clock::now();
+      }
+      output_s_ += seconds_since(out_start);
+    }
+    checkpoint_if_due(k);
+    if (hooks_.progress && (k & 15) == 0) hooks_.progress->update(k);  // it reads the clock: not every step
+  }
+  loop_s_ = loop_.seconds + seconds_since(loop_start_) - output_s_ - companion_s_;
+}
+
+bool RunLoop::stop_requested(long k) {
+  const bool ctrl_c = interrupt_requested();
+  if (!ctrl_c && !(config_.sink && config_.sink->stop_requested()) &&
+      !(config_.stop && config_.stop->load(std::memory_order_relaxed)))
+    return false;
+  summary_.status = Status::Interrupted;
+  summary_.message = (ctrl_c ? std::string("interrupted (") + interrupt_name() + ")"
+                             : std::string("interrupted by the caller")) +
+                     " after step " + std::to_string(k - 1) + " at t = " + std::to_string(runner_->t()) +
+                     "; the output holds every row up to there";
+  return true;
+}
+
+bool RunLoop::watches_fail(long k) {
+  if (k > 1 && (summary_.status = stability_->check(*runner_, k - 1, summary_.message)) != Status::Ok) return true;
+  return k > 1 && PrecisionWatch::due(k - 1) &&
+         (summary_.status = precision_->check(runner_->q(), runner_->velocity(), run_.dt, k - 1,
+                                              summary_.message)) != Status::Ok;
+}
+
+bool RunLoop::advance(long k) {
+  const double t_before = runner_->t();
+  const Status status = runner_->advance(loop_.t0 + static_cast<double>(k) * run_.dt);
+  if (status != Status::Ok) {
+    summary_.status = status;
+    std::ostringstream os;
+    os << "step " << k << " from t = " << t_before << " failed: " << to_string(status) << ": " << runner_->message();
+    summary_.message = os.str();
+    return false;
+  }
+  summary_.steps = k;
+  return true;
+}
+
+// After step k: its diagnostics against the bounds (run_checks.hpp). This step's energy errors:
+// of p~ (e) and of the post-momentum (ep), net of the work when there is some. The identity:
+// E_post(k-1/2) - E_post(-1/2) = sum_{j<k} h F_j^T M^-1 p~_j, exactly. The energy of p~_k sits
+// half a step of work later: E(p~) = E_post(k-1/2) + (h/2) F_k^T M^-1 p~_k + O(h^2), so it is
+// compared with the work to t_k, W + (h/2)(P_k - P_0). The other methods and orders: the energy
+// they report against W(t_k) by Gregory's rule, whose error is below the method's own.
+void RunLoop::measure(long k) {
+  RunSummary& summary = summary_;
+  const Diagnostics& d0 = loop_.d0;
+  const double dt = run_.dt, floor = loop_.rest.energy;
+  d_ = runner_->diagnostics();
+  const Diagnostics& d = d_;
+  if (!finite(d)) {  // the step's own check passed (finite q, p), the energy or residual overflowed
+    summary.status = Status::BlewUp;
+    summary.message = "after step " + std::to_string(k) + " (t = " + std::to_string(runner_->t()) +
+                      ") the diagnostics overflowed: " + describe(d) + ": reduce --dt";
+  }
+  double e, ep;
+  if (exact_work_) {
+    summary.work += dt * loop_.power;
+    loop_.power = power_now();
+    e = balance_error(d.energy, d0.energy, summary.work + 0.5 * dt * (loop_.power - loop_.power0), floor);
+    ep = balance_error(d.energy_post, d0.energy_post, summary.work, floor);
+    summary.energy_balance_err_max = worst(summary.energy_balance_err_max, ep);
+  } else if (forced_) {
+    loop_.work.add(power_now());
+    summary.work = loop_.work.value();
+    e = loop_.work.accurate() || k == run_.steps ? balance_error(d.energy, d0.energy, summary.work, floor) : 0.0;
+    ep = std::numeric_limits<double>::quiet_NaN();
+    summary.energy_balance_err_max = worst(summary.energy_balance_err_max, e);
+  } else {
+    e = relative_change(d.energy, d0.energy, floor);
+    ep = relative_change(d.energy_post, d0.energy_post, floor);
+    summary.energy_post_rel_err_max = worst(summary.energy_post_rel_err_max, ep);
+  }
+  summary.energy_rel_err_max = worst(summary.energy_rel_err_max, e);
+  if (summary.restarts >= 0) {
+    const double a = runner_->parasitic();
+    if (!std::isnan(a)) summary.parasitic_max = std::isnan(summary.parasitic_max) ? a : std::max(summary.parasitic_max, a);
+  }
+  summary.residual_max = worst(summary.residual_max, d.residual);
+  const double residual_rel = k == 1 || k % kResidualEvery == 0 || k == run_.steps ? relative_residual() : 0.0;
+  summary.residual_rel_max = worst(summary.residual_rel_max, residual_rel);
+  summary.gap_max = worst(summary.gap_max, d.gap);
+  // Blown up: every energy measure the method has is off by more than the bound (net of the
+  // work). The plain method's period-2 mode moves the energy of p~ by that much while
+  // energy_post stays exact, so the smaller of the two decides.
+  const double error = std::isnan(ep) ? e : std::min(e, ep);
+  if (summary.status == Status::Ok && error > kEnergyBound)
+    summary.status = energy_blew_up(error, forced_, k, runner_->t(), energy_advice(summary, run_.choice.rattle),
+                                    summary.message);
+  if (summary.status == Status::Ok)
+    summary.status = check_constraints(residual_rel, d.gap, loop_.lever_arm, k, runner_->t(), summary.message);
+  if (summary.has_momentum) {
+    runner_->momentum_maps(j_);
+    summary.momentum_drift_max = worst(summary.momentum_drift_max, (j_ - loop_.j0).lpNorm<Eigen::Infinity>());
+  }
+}
+
+// --error-estimate: two steps of dt/2 (ARKODE: two output intervals) per step.
+void RunLoop::companion_step(long k, bool output) {
+  const auto companion_start = Clock::now();
+  Status cs = companion_->advance(loop_.t0 + (static_cast<double>(k) - 0.5) * run_.dt);
+  if (cs == Status::Ok) cs = companion_->advance(loop_.t0 + static_cast<double>(k) * run_.dt);
+  if (cs != Status::Ok) {
+    loop_.difference = std::numeric_limits<double>::quiet_NaN();
+    loop_.companion_failure = "the companion trajectory of --error-estimate failed at t = " +
+                              std::to_string(companion_->t()) + ": " + companion_->message();
+    companion_.reset();
+  } else if (output) {
+    loop_.difference = worst(loop_.difference, (runner_->q() - companion_->q()).lpNorm<Eigen::Infinity>());
+  }
+  companion_s_ += seconds_since(companion_start);
+}
+
+void RunLoop::write_frame(const Diagnostics& d) {
+  if (csv_) csv_->row(runner_->t(), runner_->q(), d);
+  for (FrameSink* s : sinks_) s->frame(runner_->t(), runner_->q(), runner_->p(), d);
+}
+
+void RunLoop::checkpoint_if_due(long k) {
+  if (summary_.status != Status::Ok || config_.checkpoint_path.empty()) return;
+  const bool due = (config_.checkpoint_every_steps > 0 && k % config_.checkpoint_every_steps == 0) ||
+                   (config_.checkpoint_every_seconds > 0.0 &&
+                    seconds_since(last_checkpoint_) >= config_.checkpoint_every_seconds);
+  if (!due) return;
+  const auto checkpoint_start = Clock::now();
+  const double before = loop_.seconds;  // the integration's seconds before this process
+  loop_.seconds = before + seconds_since(loop_start_) - output_s_ - companion_s_;
+  write_checkpoint_now(k);
+  loop_.seconds = before;
+  output_s_ += seconds_since(checkpoint_start);
+}
+
+// The checkpoint: the loop's state at the end of step k, the outputs flushed first so that the
+// position it records is on disk.
+void RunLoop::write_checkpoint_now(long k) {
+  if (csv_) loop_.output_position = csv_->flush_to_disk();
+  if (h5_) loop_.output_position = h5_->flush_to_disk();
+  loop_.k = k;
+  loop_.summary = summary_;
+  OutArchive out;
+  RunConfig effective = config_;
+  effective.horizon = run_.choice.adaptive.horizon;
+  effective.resume_path.clear();
+  // Absolute paths: a resume from another directory still finds the output and the scene file.
+  if (!effective.csv_path.empty()) effective.csv_path = std::filesystem::absolute(effective.csv_path).string();
+  if (is_scene_file(effective.scene)) effective.scene = std::filesystem::absolute(effective.scene).string();
+  save(out, effective);
+  loop_.save(out);
+  runner_->save(out);
+  if (companion_) companion_->save(out);
+  stability_->save(out);
+  precision_->save(out);
+  write_checkpoint(config_.checkpoint_path, {run_.info.name, config_.method, runner_->t(), k}, out.bytes(),
+                   runner_->q(), runner_->p());
+  last_checkpoint_ = Clock::now();
+}
+
+// The final checkpoint (the state the loop ended in, before the verdicts below, which a resumed
+// run makes afresh at its own end); the error estimates; the files closed.
+void RunLoop::close_outputs() {
+  RunSummary& summary = summary_;
+  if (!config_.checkpoint_path.empty()) {
+    loop_.seconds = loop_s_;
+    write_checkpoint_now(summary.steps);
+  }
+  summary.stability_ratio = stability_->ratio();
+  if (summary.status == Status::Ok) {
+    add_warning(summary, stability_->warning());
+    add_warning(summary, precision_->warning());
+  }
+  if (const DoublingEstimate* w = summary.steps > 0 ? runner_->accuracy() : nullptr) {  // no step: nothing to judge
+    summary.error_estimate = w->estimate();
+    summary.extent = w->extent();
+    if (w->failed_samples() > 0 && summary.status == Status::Ok)  // a failed run says it all
+      add_warning(summary, "the accuracy check's step of 2 dt failed " + std::to_string(w->failed_samples()) +
+                               " times (first at " + w->first_failure() +
+                               "): dt is within a factor 2 of what the method can take here; the estimate covers "
+                               "the samples that worked");
+  }
+  // A run without a step compared nothing: no estimate.
+  summary.has_error_estimate = config_.error_estimate;
+  if (config_.error_estimate) {
+    const double in_run = summary.error_estimate;
+    summary.error_estimate =
+        summary.steps > 0 ? run_.companion.scale * loop_.difference : std::numeric_limits<double>::quiet_NaN();
+    // Richardson's factor assumes the asymptotic regime; where the accuracy check saw steps outside
+    // it (a step of 2 dt and two of dt differing by more than 1 % of the speed), the companion
+    // understates (the inertia-1e-10 chain: 0.22 for 0.49), and the check's own sum stands.
+    const DoublingEstimate* w = runner_->accuracy();
+    if (w && w->fast_samples() > 0 && in_run > summary.error_estimate) summary.error_estimate = in_run;
+  }
+  if (csv_) csv_->close();
+  for (FrameSink* s : sinks_) s->end();
+}
+
+void RunLoop::judge() {
+  RunSummary& summary = summary_;
+  const MethodChoice& choice = run_.choice;
+  summary.t_final = runner_->t();
+  summary.rhs_evaluations = runner_->rhs_evaluations();
+  if (choice.adaptive_on()) {
+    summary.tol = choice.adaptive.tol;
+    summary.adaptive_steps = runner_->internal_steps();
+    summary.rejected = runner_->rejected();
+  }
+  summary.factorizations = runner_->factorizations();
+  if (summary.restarts >= 0) summary.restarts = runner_->restarts();
+  if (setup_->model.has_rigid_bodies()) summary.legendre_iterations_max = runner_->legendre_iterations();
+  if (forced_) summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();  // not an invariant
+  if (summary.status == Status::Ok && summary.parasitic_max > kParasiticWarning)
+    add_warning(summary, parasitic_warning(summary, choice.rattle));
+  // ARKODE stops at every output time (--dt): one step per interval means that its error
+  // control wanted longer steps than --dt allowed, at the cost of evaluations.
+  const long internal = runner_->internal_steps();
+  if (choice.adaptive_on() && summary.steps >= 4 && internal <= 2 * (summary.steps + summary.steps / 16))
+    add_warning(summary, "the adaptive steps took about one pair per output interval (" + std::to_string(internal) +
+                             " steps for " + std::to_string(summary.steps) +
+                             " intervals): --dt, the output interval, probably capped them; a larger --dt lets "
+                             "the error control choose longer steps");
+  else if (!choice.adaptive_on() && internal >= 0 && summary.steps >= 4 &&
+           internal <= summary.steps + summary.steps / 16)
+    add_warning(summary, "ARKODE took about one step per output interval (" + std::to_string(internal) +
+                             " steps for " + std::to_string(summary.steps) +
+                             " intervals): --dt, its output interval, probably capped its step; a larger --dt "
+                             "lets its error control choose longer steps (fewer evaluations at the same tolerance)");
+  add_warning(summary, loop_.companion_failure);
+  if (runner_->accuracy() && summary.steps > 0)  // after the warnings it may add to
+    judge_accuracy(summary, config_, method_order(config_, choice), *runner_->accuracy(), reflection_);
+  summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s_ / static_cast<double>(summary.steps) : 0.0;
+  summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
+}
+
+TrajectoryResult RunLoop::result() {
+  TrajectoryResult r;
+  if (hooks_.final_q) r.final_q = runner_->q();
+  if (hooks_.final_state) {
+    r.final_p = runner_->p();
+    r.coordinates = setup_->model.coordinate_names();
+    r.velocities = setup_->model.velocity_names();
+  }
+  if (h5_) h5_->finish(summary_);  // the summary's attributes, then the file is closed
+  r.summary = std::move(summary_);
+  return r;
+}
+
+double RunLoop::relative_residual() {
+  return runner_->velocity().lpNorm<Eigen::Infinity>() > speed_floor_ ? runner_->relative_residual() : 0.0;
+}
+
+double RunLoop::power_now() {
+  return external_power(setup_->model, runner_->t(), runner_->q(), runner_->velocity(), force_);
+}
+
+TrajectoryResult integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
+                                 const TrajectoryHooks& hooks) {
+  return RunLoop(run, params, config, hooks).run();
+}
+
+}  // namespace nonholo::scenarios
