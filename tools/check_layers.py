@@ -157,20 +157,18 @@ def includes(root, path):
 def check(root):
     rooms = Rooms(read_table(root))
     problems = []
-    seen_folders = set()
     for path in sources(root):
         lib = library_of(path)
         room = rooms.of_file(path)
         in_library = path.startswith(tuple(l + "/" for l in LIBRARY_SOURCES))
         if in_library and room is None:
             problems.append(f"{path}: in no room of docs/layout.md's table (add its folder or public header)")
-        seen_folders.add(os.path.dirname(path))
         if path.endswith(".cpp"):
             first = open(os.path.join(root, path), encoding="utf-8").readline()
             if not first.startswith("//"):
                 problems.append(f"{path}:1: opens without a one-line comment on what the file holds")
         for line, kind, spelled in includes(root, path):
-            where = f"{path}:{line}: #include {'<' if kind == '<' else chr(34)}{spelled}{'>' if kind == '<' else chr(34)}"
+            where = f"{path}:{line}: #include " + (f"<{spelled}>" if kind == "<" else f'"{spelled}"')
             for pattern, allowed in GUARDED:
                 if pattern.search(spelled) and not path.startswith(allowed):
                     problems.append(f"{where}: only {', '.join(allowed)} may include it")
@@ -181,7 +179,6 @@ def check(root):
                 if target_room is None:
                     problems.append(f"{where}: the public header has no room in docs/layout.md's table")
                     continue
-                target_lib = None
             else:
                 if spelled.startswith("../") and lib in ("tests", "benchmarks", "examples"):
                     top = os.path.normpath(os.path.join(os.path.dirname(path), spelled)).split(os.sep)[0]
@@ -199,7 +196,8 @@ def check(root):
                                     f"(<nonholo/...>) across libraries")
                     continue
                 if spelled.startswith("../") and lib not in ("tests", "benchmarks", "examples"):
-                    problems.append(f"{where}: include a private header by its room path ({target[len(PRIVATE_ROOTS.get(lib, lib)) + 1:]}), not by ../")
+                    by_room = target[len(PRIVATE_ROOTS.get(lib, lib)) + 1:]
+                    problems.append(f"{where}: include a private header by its room path ({by_room}), not by ../")
             if room is None or target_room is None or lib in ("tests", "benchmarks", "examples"):
                 continue
             if target_room not in rooms.allowed[room]:

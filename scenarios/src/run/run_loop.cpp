@@ -130,17 +130,18 @@ TrajectoryResult RunLoop::run() {
 // "setting up sleigh_chain (1000000 bodies): building model...": the body count from the
 // parameters until the model says.
 void RunLoop::set_up() {
+  long bodies = -1;
   for (const auto& spec : params_.specs())
-    if (spec.name == "bodies") bodies_ = std::lround(params_["bodies"]);
-  auto status = [this](const char* phase) {
+    if (spec.name == "bodies") bodies = std::lround(params_["bodies"]);
+  auto status = [this, &bodies](const char* phase) {
     if (!hooks_.setup_status) return;
     std::string line = "setting up " + run_.info.name;
-    if (bodies_ > 0) line += " (" + std::to_string(bodies_) + (bodies_ == 1 ? " body)" : " bodies)");
+    if (bodies > 0) line += " (" + std::to_string(bodies) + (bodies == 1 ? " body)" : " bodies)");
     hooks_.setup_status->status(line + ": " + phase + "...");
   };
   status("building model");
   setup_.emplace(run_.info.build(params_));
-  bodies_ = setup_->model.num_bodies();
+  bodies = setup_->model.num_bodies();
   if (hooks_.on_model) hooks_.on_model(setup_->model);
   const SetupPhase phase = status;
   try {
@@ -221,11 +222,7 @@ void RunLoop::start() {
   loop_.work.start(loop_.power0, dt);
   loop_.rest = rest_scales(model, runner_->t(), runner_->q(), dt);
   loop_.t0 = runner_->t();
-  // A velocity at round-off of the rest scale (a body at rest) satisfies no constraint to any
-  // relative accuracy: its relative residual is not judged.
-  speed_floor_ = 64 * std::numeric_limits<double>::epsilon() * loop_.rest.speed;
-  stability_ = std::make_unique<StabilityWatch>(model, run_.choice, dt);
-  precision_ = std::make_unique<PrecisionWatch>(model, speed_floor_);
+  make_watches();
   const Diagnostics& d0 = loop_.d0;
   loop_.j0.resize(static_cast<Eigen::Index>(model.momentum_maps().size()));
   runner_->momentum_maps(loop_.j0);
@@ -246,11 +243,17 @@ void RunLoop::start() {
     summary_.status = precision_->check(runner_->q(), runner_->velocity(), dt, 0, summary_.message);
 }
 
-void RunLoop::resume() {
-  const Model& model = setup_->model;
+// The stability and precision watches, once the rest scales are known (measured or loaded).
+void RunLoop::make_watches() {
+  // A velocity at round-off of the rest scale (a body at rest) satisfies no constraint to any
+  // relative accuracy: its relative residual is not judged.
   speed_floor_ = 64 * std::numeric_limits<double>::epsilon() * loop_.rest.speed;
-  stability_ = std::make_unique<StabilityWatch>(model, run_.choice, run_.dt);
-  precision_ = std::make_unique<PrecisionWatch>(model, speed_floor_);
+  stability_ = std::make_unique<StabilityWatch>(setup_->model, run_.choice, run_.dt);
+  precision_ = std::make_unique<PrecisionWatch>(setup_->model, speed_floor_);
+}
+
+void RunLoop::resume() {
+  make_watches();
   summary_ = loop_.summary;
   if (summary_.status == Status::Interrupted) {  // what a resume is for
     summary_.status = Status::Ok;
@@ -273,12 +276,12 @@ void RunLoop::loop() {
   loop_start_ = Clock::now();
   for (long k = loop_.k + 1; k <= run_.steps && summary_.status == Status::Ok; ++k) {
     if (stop_requested(k) || watches_fail(k) || !advance(k)) break;
-    measure(k);
+    const Diagnostics d = measure(k);
     const bool output = k % config_.every == 0 || k == run_.steps;
     if (companion_) companion_step(k, output);
     if (output && (csv_ || !sinks_.empty())) {
       const auto out_start = Clock::now();
-      write_frame(d_);
+      write_frame(d);
       // On disk every few seconds: a killed run keeps what was written up to the last flush.
       if ((csv_ || h5_) && std::chrono::duration<double>(out_start - last_flush_).count() >= kFlushSeconds) {
         if (csv_) csv_->flush_to_disk();
@@ -333,12 +336,11 @@ bool RunLoop::advance(long k) {
 // half a step of work later: E(p~) = E_post(k-1/2) + (h/2) F_k^T M^-1 p~_k + O(h^2), so it is
 // compared with the work to t_k, W + (h/2)(P_k - P_0). The other methods and orders: the energy
 // they report against W(t_k) by Gregory's rule, whose error is below the method's own.
-void RunLoop::measure(long k) {
+Diagnostics RunLoop::measure(long k) {
   RunSummary& summary = summary_;
   const Diagnostics& d0 = loop_.d0;
   const double dt = run_.dt, floor = loop_.rest.energy;
-  d_ = runner_->diagnostics();
-  const Diagnostics& d = d_;
+  const Diagnostics d = runner_->diagnostics();
   if (!finite(d)) {  // the step's own check passed (finite q, p), the energy or residual overflowed
     summary.status = Status::BlewUp;
     summary.message = "after step " + std::to_string(k) + " (t = " + std::to_string(runner_->t()) +
@@ -384,6 +386,7 @@ void RunLoop::measure(long k) {
     runner_->momentum_maps(j_);
     summary.momentum_drift_max = worst(summary.momentum_drift_max, (j_ - loop_.j0).lpNorm<Eigen::Infinity>());
   }
+  return d;
 }
 
 // --error-estimate: two steps of dt/2 (ARKODE: two output intervals) per step.

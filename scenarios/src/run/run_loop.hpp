@@ -66,6 +66,7 @@ class RunLoop {
   void open_outputs();   // CSV or HDF5, and the caller's sink
   void describe_run();   // the summary's fixed fields: scene, method, order, hitch, ...
   void start();          // a fresh run: the initial diagnostics, the first frame, the initial checks
+  void make_watches();   // the stability and precision watches (start and resume)
   void resume();         // a resumed run: the runner's and the watches' state from the checkpoint
   void loop();           // the steps, until t_end or a failure
   void close_outputs();  // the final checkpoint, estimates, the files closed
@@ -76,7 +77,7 @@ class RunLoop {
   bool stop_requested(long k);       // Ctrl-C, the sink or the caller: status=interrupted
   bool watches_fail(long k);         // the stability and precision watches before step k
   bool advance(long k);              // the method's step; false (status set) when it failed
-  void measure(long k);              // the energy, residual, gap and momentum bounds after it
+  Diagnostics measure(long k);       // the step's diagnostics, held to the energy, residual and gap bounds
   void companion_step(long k, bool output);
   void write_frame(const Diagnostics& d);
   void checkpoint_if_due(long k);
@@ -90,7 +91,6 @@ class RunLoop {
   const RunConfig& config_;
   const TrajectoryHooks& hooks_;
   const bool reflection_;
-  long bodies_ = -1;  // for the set-up status line: the parameters' count until the model says
 
   std::optional<SceneSetup> setup_;  // the model and its start (set_up)
   std::unique_ptr<Runner> runner_, companion_;
@@ -107,7 +107,6 @@ class RunLoop {
   bool forced_ = false;      // external forces: the energy balance against the work
   bool exact_work_ = false;  // ... by the order-2 reflection step's discrete identity
   Vector force_, j_;         // scratch: F(t, q), the momentum maps
-  Diagnostics d_;            // the last step's
   double speed_floor_ = 0.0;
 
   Clock::time_point loop_start_, last_checkpoint_, last_flush_;
