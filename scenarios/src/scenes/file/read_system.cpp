@@ -151,6 +151,74 @@ void read_forces(const Reader& r, const json& root, System& s) {
            "gravity acts on rigid bodies that move freely in 3-D (\"translation\": 3), and the file has none");
 }
 
+// A hitch of two planar bodies closed at the start.
+void check_hitch(const Reader& r, const System& s, const Constraint& c, const std::string& where) {
+  const Body& a = s.bodies[static_cast<std::size_t>(c.a)];
+  const Body& b = s.bodies[static_cast<std::size_t>(c.b)];
+  if (a.rigid || b.rigid) return;
+  const double gx = a.x - c.p * std::cos(a.heading) - b.x - c.p2 * std::cos(b.heading);
+  const double gy = a.y - c.p * std::sin(a.heading) - b.y - c.p2 * std::sin(b.heading);
+  const double gap = std::hypot(gx, gy);
+  if (!(gap <= 1e-9 * (1.0 + std::abs(a.x) + std::abs(a.y)))) {  // NaN (overflow) is open too
+    std::ostringstream os;
+    os << "the hitch is open at the start: its two points are " << gap << " apart (place body " << c.b
+       << " so that they meet)";
+    r.fail(where, os.str());
+  }
+}
+
+// A rod at its length at the start (centres of the same dimension).
+void check_rod(const Reader& r, const System& s, const Constraint& c, const std::string& where) {
+  const std::vector<double> ca = s.bodies[static_cast<std::size_t>(c.a)].centre(),
+                            cb = s.bodies[static_cast<std::size_t>(c.b)].centre();
+  if (ca.empty() || ca.size() != cb.size()) return;
+  double scale = 1.0 + c.p;
+  for (std::size_t i = 0; i < ca.size(); ++i) scale = std::max({scale, std::abs(ca[i]), std::abs(cb[i])});
+  const double dx = ca[0] - cb[0], dy = ca[1] - cb[1];
+  const double distance = ca.size() == 3 ? std::hypot(dx, dy, ca[2] - cb[2]) : std::hypot(dx, dy);
+  if (!(std::abs(distance - c.p) <= 1e-9 * scale)) {
+    std::ostringstream os;
+    os << "the rod is not at its length at the start: the centres of bodies " << c.a << " and " << c.b << " are "
+       << distance << " apart, the rod is " << c.p << " long (place body " << c.b << " at distance " << c.p
+       << " from body " << c.a << ")";
+    r.fail(where, os.str());
+  }
+}
+
+// A rolling ball or disk free in 3-D on the ground at the start.
+void check_on_ground(const Reader& r, const System& s, const Constraint& c, const std::string& where) {
+  const Body& a = s.bodies[static_cast<std::size_t>(c.a)];
+  if (!a.rigid || a.shape.translation != 3) return;
+  const double z = a.position[2];
+  const std::string set = "set bodies[" + std::to_string(c.a) + "].position[2] to ";
+  std::ostringstream os;
+  if (c.kind == Constraint::kBall) {
+    if (!(std::abs(z - c.p) <= 1e-9 * (1.0 + c.p + std::abs(z)))) {
+      os << "the ball is not on the ground at the start: its centre is at height " << z << ", its radius is " << c.p
+         << " (" << set << exact(c.p) << ")";
+      r.fail(where, os.str());
+    }
+    return;
+  }
+  // Its centre is r |w| above the contact point, w = e3 - n_z n, n = R e3 its axis
+  // (|w| = sqrt(1 - n_z^2), computed as the element does).
+  const Eigen::Vector3d axis = quaternion_matrix(a.orientation).col(2);
+  const double tilt = (Eigen::Vector3d::UnitZ() - axis.z() * axis).norm();
+  if (!(tilt > 1e-8)) {
+    os << "the disk lies flat at the start (its axis R e3 is vertical, sin of its tilt " << tilt
+       << "): it has no contact point; tilt it (bodies[" << c.a << "].orientation)";
+    r.fail(where, os.str());
+  }
+  const double height = c.p * tilt;
+  if (!(std::abs(z - height) <= 1e-9 * (1.0 + c.p + std::abs(z)))) {
+    os << "the disk is not on the ground at the start: its centre is at height " << z << ", and a disk of radius "
+       << c.p << " tilted as it is (axis R e3 = (" << axis.x() << ", " << axis.y() << ", " << axis.z()
+       << ")) touches the ground with its centre at r sqrt(1 - n_z^2) = " << height << " (" << set
+       << exact(height) << ")";
+    r.fail(where, os.str());
+  }
+}
+
 // The holonomic constraints must hold at the start: hitches closed, rods at their length,
 // balls and disks on the ground. Elements the builder refuses anyway (a hitch on a rigid body,
 // a rod between centres of different dimensions, a disk whose centre cannot rise) are left to
@@ -158,72 +226,9 @@ void read_forces(const Reader& r, const json& root, System& s) {
 void check_closed(const Reader& r, const System& s) {
   for (const Constraint& c : s.constraints) {
     const std::string where = "constraints[" + std::to_string(c.index) + "]";
-    const Body& a = s.bodies[static_cast<std::size_t>(c.a)];
-    std::ostringstream os;
-    switch (c.kind) {
-      case Constraint::kHitch: {
-        const Body& b = s.bodies[static_cast<std::size_t>(c.b)];
-        if (a.rigid || b.rigid) break;
-        const double gx = a.x - c.p * std::cos(a.heading) - b.x - c.p2 * std::cos(b.heading);
-        const double gy = a.y - c.p * std::sin(a.heading) - b.y - c.p2 * std::sin(b.heading);
-        const double gap = std::hypot(gx, gy);
-        if (!(gap <= 1e-9 * (1.0 + std::abs(a.x) + std::abs(a.y)))) {  // NaN (overflow) is open too
-          os << "the hitch is open at the start: its two points are " << gap << " apart (place body " << c.b
-             << " so that they meet)";
-          r.fail(where, os.str());
-        }
-        break;
-      }
-      case Constraint::kRod: {
-        const std::vector<double> ca = a.centre(), cb = s.bodies[static_cast<std::size_t>(c.b)].centre();
-        if (ca.empty() || ca.size() != cb.size()) break;
-        double scale = 1.0 + c.p;
-        for (std::size_t i = 0; i < ca.size(); ++i) scale = std::max({scale, std::abs(ca[i]), std::abs(cb[i])});
-        const double dx = ca[0] - cb[0], dy = ca[1] - cb[1];
-        const double distance = ca.size() == 3 ? std::hypot(dx, dy, ca[2] - cb[2]) : std::hypot(dx, dy);
-        if (!(std::abs(distance - c.p) <= 1e-9 * scale)) {
-          os << "the rod is not at its length at the start: the centres of bodies " << c.a << " and " << c.b << " are "
-             << distance << " apart, the rod is " << c.p << " long (place body " << c.b << " at distance " << c.p
-             << " from body " << c.a << ")";
-          r.fail(where, os.str());
-        }
-        break;
-      }
-      case Constraint::kBall:
-      case Constraint::kDisk: {
-        if (!a.rigid || a.shape.translation != 3) break;
-        const double z = a.position[2];
-        const std::string set = "set bodies[" + std::to_string(c.a) + "].position[2] to ";
-        if (c.kind == Constraint::kBall) {
-          if (!(std::abs(z - c.p) <= 1e-9 * (1.0 + c.p + std::abs(z)))) {
-            os << "the ball is not on the ground at the start: its centre is at height " << z << ", its radius is " << c.p
-               << " (" << set << exact(c.p) << ")";
-            r.fail(where, os.str());
-          }
-          break;
-        }
-        // Its centre is r |w| above the contact point, w = e3 - n_z n, n = R e3 its axis
-        // (|w| = sqrt(1 - n_z^2), computed as the element does).
-        const Eigen::Vector3d axis = quaternion_matrix(a.orientation).col(2);
-        const double tilt = (Eigen::Vector3d::UnitZ() - axis.z() * axis).norm();
-        if (!(tilt > 1e-8)) {
-          os << "the disk lies flat at the start (its axis R e3 is vertical, sin of its tilt " << tilt
-             << "): it has no contact point; tilt it (bodies[" << c.a << "].orientation)";
-          r.fail(where, os.str());
-        }
-        const double height = c.p * tilt;
-        if (!(std::abs(z - height) <= 1e-9 * (1.0 + c.p + std::abs(z)))) {
-          os << "the disk is not on the ground at the start: its centre is at height " << z << ", and a disk of radius "
-             << c.p << " tilted as it is (axis R e3 = (" << axis.x() << ", " << axis.y() << ", " << axis.z()
-             << ")) touches the ground with its centre at r sqrt(1 - n_z^2) = " << height << " (" << set
-             << exact(height) << ")";
-          r.fail(where, os.str());
-        }
-        break;
-      }
-      default:
-        break;
-    }
+    if (c.kind == Constraint::kHitch) check_hitch(r, s, c, where);
+    if (c.kind == Constraint::kRod) check_rod(r, s, c, where);
+    if (c.kind == Constraint::kBall || c.kind == Constraint::kDisk) check_on_ground(r, s, c, where);
   }
 }
 
