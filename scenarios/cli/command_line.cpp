@@ -142,6 +142,10 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
   run.hitch = hitch_mode_from_string(o.hitch);
 }
 
+// One line to a stream in one write: under mpirun the ranks' stderr (unbuffered) would otherwise
+// interleave piece by piece ("nonholo nonholo batch: ..." when two ranks fail at once).
+void say(std::ostream& os, const std::string& line) { os << line + "\n" << std::flush; }
+
 // "nonholo run sleigh --dt 0.1": the words as given, quoted where a shell would need it.
 std::string command_of(const std::string& command, const std::vector<std::string>& args) {
   std::string line = command.empty() ? "nonholo" : "nonholo " + command;
@@ -317,7 +321,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; }))
       commands += (commands.empty() ? "" : ", ") + command->get_name();
     if (app.get_subcommands([&](const CLI::App* command) { return command->get_name() == word; }).empty()) {
-      err << "nonholo: unknown command '" << word << "' (commands: " << commands << ")" << std::endl;
+      say(err, "nonholo: unknown command '" + word + "' (commands: " + commands + ")");
       return 1;
     }
   }
@@ -350,10 +354,10 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
       InterruptScope on_ctrl_c;  // Ctrl-C: finish the rows, print the summary, exit 130
       const BatchResult result = run_batch(batch);
       out << result.line() << std::endl;
-      if (!result.aggregate.warning.empty()) err << "nonholo batch: warning: " << result.aggregate.warning << std::endl;
+      if (!result.aggregate.warning.empty()) say(err, "nonholo batch: warning: " + result.aggregate.warning);
       if (result.failed > 0) {
-        err << "nonholo batch: " << result.failed << " of " << result.trajectories
-            << " trajectories failed; first: " << result.first_failure << std::endl;
+        say(err, "nonholo batch: " + std::to_string(result.failed) + " of " + std::to_string(result.trajectories) +
+                     " trajectories failed; first: " + result.first_failure);
         if (interrupt_requested()) return kInterruptedExit;
         return result.failed == result.inaccurate ? kInaccurateExit : 2;
       }
@@ -365,15 +369,15 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     InterruptScope on_ctrl_c;
     const RunSummary summary = run_scene(run.config);
     (run.config.csv_path == "-" ? err : out) << summary.line() << std::endl;  // --out -: the CSV is stdout
-    if (!summary.warning.empty()) err << "nonholo run: warning: " << summary.warning << std::endl;
+    if (!summary.warning.empty()) say(err, "nonholo run: warning: " + summary.warning);
     if (summary.status != Status::Ok) {
-      err << "nonholo run: " << summary.message << std::endl;
+      say(err, "nonholo run: " + summary.message);
       if (summary.status == Status::Inaccurate) return kInaccurateExit;
       return summary.status == Status::Interrupted ? kInterruptedExit : 2;
     }
   } catch (const std::exception& e) {
     if (processes && batch_cmd->parsed()) processes->abandon();  // the other ranks may be waiting
-    err << "nonholo " << name << ": " << e.what() << std::endl;
+    say(err, "nonholo " + name + ": " + e.what());
     return 1;
   }
   return 0;
