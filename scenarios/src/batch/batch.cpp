@@ -79,10 +79,6 @@ void gather_states(const std::vector<Row>& rows, BatchResult::States& out) {
   }
 }
 
-bool is_csv_path(const std::string& path) {
-  return path.size() > 4 && path.compare(path.size() - 4, 4, ".csv") == 0;
-}
-
 // One batch: what its phases share.
 class BatchRun {
  public:

@@ -22,6 +22,10 @@ inline bool is_hdf5_path(const std::string& path) {
   auto ends = [&](const char* e, std::size_t n) { return path.size() > n && path.compare(path.size() - n, n, e) == 0; };
   return ends(".h5", 3) || ends(".hdf5", 5);
 }
+// Whether an --out path names a CSV file (ends in .csv).
+inline bool is_csv_path(const std::string& path) {
+  return path.size() > 4 && path.compare(path.size() - 4, 4, ".csv") == 0;
+}
 
 class Hdf5RunWriter final : public FrameSink {
  public:

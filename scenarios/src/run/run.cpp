@@ -28,10 +28,6 @@ constexpr double kMaxSteps = 1e12;
 // 2/64 = 3 % of a run's cost once the samples agree (a shadow step of 2h and a factorisation).
 constexpr int kAccuracyEvery = 64;
 
-bool reference_method(const std::string& name) {
-  return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner" || name == "arkode-fehlberg8";
-}
-
 // The method and its options (--method, --order, --rotation, --restart, --tol, --project ...).
 void choose_method(const RunConfig& config, PreparedRun& r) {
   r.choice.method = config.method;
@@ -88,7 +84,7 @@ void check_outputs(const RunConfig& config, PreparedRun& r) {
   r.choice.accuracy_every = config.accuracy > 0.0 ? kAccuracyEvery : 0;
   const std::string& out = config.csv_path;
   if (!out.empty() && !is_hdf5_path(out) && out != "-" &&
-      !(out.size() > 4 && out.compare(out.size() - 4, 4, ".csv") == 0))
+      !is_csv_path(out))
     throw std::invalid_argument("--out " + out +
                                 ": name the file .csv (text) or .h5 / .hdf5 (HDF5), or give - for CSV on standard output");
   if (!config.checkpoint_path.empty() && out == "-")

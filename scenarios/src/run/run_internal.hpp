@@ -17,6 +17,11 @@ inline double worst(double so_far, double value) {
   return (value != value || value > so_far) ? value : so_far;
 }
 
+// The methods of the index-reduced equations (reference/): hitches as velocity rows, --project.
+inline bool reference_method(const std::string& name) {
+  return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner" || name == "arkode-fehlberg8";
+}
+
 struct PreparedRun {
   SceneInfo info;  // a built-in scene or one read from a file
   MethodChoice choice;

@@ -74,10 +74,6 @@ std::string describe(const Diagnostics& d) {
   return os.str();
 }
 
-bool reference_method(const std::string& name) {
-  return name == "rk4" || name == "arkode-dp5" || name == "arkode-verner" || name == "arkode-fehlberg8";
-}
-
 // The order the accuracy check's advice assumes.
 int method_order(const RunConfig& config, const MethodChoice& choice) {
   if (config.method == "reflection") return choice.rattle.order;
