@@ -11,6 +11,7 @@
 #include <nonholo/start.hpp>
 
 #include <benchmark/benchmark.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -44,8 +45,8 @@ struct Chain {
   Vector rhs;       // a right-hand side for the factor+solve benchmarks
   Vector c_values;  // C at the state, in its pattern's order
 
-  Chain(long bodies, bool hitched, Backend backend, HitchMode mode)
-      : setup(build(bodies, hitched)), ws(setup.model, {backend}),
+  Chain(long bodies, bool hitched, Backend backend, HitchMode mode, int threads = 1)
+      : setup(build(bodies, hitched)), ws(setup.model, workspace_options(backend, threads)),
         state(start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0)) {
     options.hitch = mode;
     const int warm_up = backend == Backend::Auto ? 40 : 5;
@@ -54,6 +55,12 @@ struct Chain {
     c_values.resize(setup.model.gram().pattern().nnz());
     setup.model.gram().assemble(ws.mu_values.data(), c_values.data());
     rhs = Vector::LinSpaced(setup.model.num_one_forms(), -1.0, 1.0);
+  }
+  static WorkspaceOptions workspace_options(Backend backend, int threads) {
+    WorkspaceOptions o;
+    o.backend = backend;
+    o.threads = threads;
+    return o;
   }
   static scenarios::SceneSetup build(long bodies, bool hitched) {
     const auto& info = scenarios::find_scene("sleigh_chain");
@@ -65,13 +72,13 @@ struct Chain {
   }
 };
 
-Chain& chain(long bodies, bool hitched, Backend backend, HitchMode mode) {
+Chain& chain(long bodies, bool hitched, Backend backend, HitchMode mode, int threads = 1) {
   static std::map<std::string, std::unique_ptr<Chain>> cache;
   const std::string key = std::to_string(bodies) + (hitched ? "h" : "s") + sparse::to_string(backend) +
-                          to_string(mode);
+                          to_string(mode) + "t" + std::to_string(threads);
   if (cache.count(key) == 0) {
     cache.clear();  // one chain alive at a time (a million bodies is ~1 GB with its factor)
-    cache[key] = std::make_unique<Chain>(bodies, hitched, backend, mode);
+    cache[key] = std::make_unique<Chain>(bodies, hitched, backend, mode, threads);
   }
   return *cache[key];
 }
@@ -113,6 +120,31 @@ void restart_loop(benchmark::State& s, const char* restart, int monitor_every) {
   report(s, n, c.ws.backend_name());
 }
 void ChainStep_OneForm_Plain(benchmark::State& s) { restart_loop(s, "0", 0); }
+
+// One chain on several threads (WorkspaceOptions::threads): the one-form step with the
+// default options (the mode measured and restarts as they come) and the bare step, for
+// (bodies, threads). Compare threads = 1 and P in the same run (ratios, not times).
+void threads_loop(benchmark::State& s, bool bare) {
+  const long n = s.range(0);
+  const int threads = static_cast<int>(s.range(1));
+  Chain& c = chain(n, true, Backend::Auto, HitchMode::OneForm, threads);
+  RattleOptions o = c.options;
+  if (bare) {
+    set_restart(o.restart, "0");
+    o.restart.monitor_every = 0;
+  }
+  for (auto _ : s) {
+    if (step(c.setup.model, c.ws, c.state, o) != Status::Ok) s.SkipWithError(c.ws.message());
+    benchmark::DoNotOptimize(c.state.q.data());
+  }
+  s.counters["threads"] = c.ws.threads();
+  s.counters["ns_per_body"] = benchmark::Counter(static_cast<double>(n) * 1e-9,
+                                                 benchmark::Counter::kIsIterationInvariantRate |
+                                                     benchmark::Counter::kInvert);
+  report(s, n, c.ws.backend_name());
+}
+void ChainStep_OneForm_Threads(benchmark::State& s) { threads_loop(s, false); }
+void ChainStep_OneForm_Plain_Threads(benchmark::State& s) { threads_loop(s, true); }
 void ChainStep_OneForm_PlainMeasured(benchmark::State& s) { restart_loop(s, "0", 8); }
 void ChainStep_OneForm_Auto(benchmark::State& s) { restart_loop(s, "auto", 8); }
 void ChainStep_OneForm_AutoEveryStep(benchmark::State& s) { restart_loop(s, "auto", 1); }
@@ -210,6 +242,19 @@ void restart_sizes(benchmark::internal::Benchmark* b) {
   b->ComputeStatistics("min", [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); });
 }
 
+// (bodies, threads): 1, 2, 4, ... up to the processors present, and their number.
+void thread_sizes(benchmark::internal::Benchmark* b) {
+  const int cores = omp_get_num_procs();
+  for (long n : {1000L, 10000L, 100000L, 1000000L}) {
+    for (int p = 1; p < cores; p *= 2) b->Args({n, p});
+    b->Args({n, cores});
+  }
+  b->Unit(benchmark::kMicrosecond)->UseRealTime()->MinTime(0.5);
+  b->ComputeStatistics("min", [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); });
+}
+
+BENCHMARK(ChainStep_OneForm_Threads)->Apply(thread_sizes);
+BENCHMARK(ChainStep_OneForm_Plain_Threads)->Apply(thread_sizes);
 BENCHMARK(ChainStep_OneForm)->Apply(sizes);
 BENCHMARK(ChainStep_OneForm)->Apply(million);
 BENCHMARK(ChainStep_OneForm_Plain)->Apply(restart_sizes);

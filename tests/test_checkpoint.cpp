@@ -120,6 +120,8 @@ TEST(Checkpoint, AResumedRunIsTheUninterruptedOneBitForBit) {
       {"chain holonomic order 6", {"sleigh_chain", "--set", "bodies=20", "--order", "6", "--dt", "0.05", "--t-end", "3"}, "csv", 21},
       {"chain one-form order 8", {"sleigh_chain", "--set", "bodies=20", "--hitch", "oneform", "--order", "8", "--dt", "0.1", "--t-end", "3"}, "csv", 11},
       {"chain one-form order 2", {"sleigh_chain", "--set", "bodies=50", "--hitch", "oneform", "--t-end", "3"}, "csv", 101},
+      {"chain one-form on 3 threads", {"sleigh_chain", "--set", "bodies=50", "--set", "k=2", "--hitch", "oneform", "--threads", "3", "--t-end", "3"}, "csv", 101},
+      {"chain one-form order 4 on 2 threads", {"sleigh_chain", "--set", "bodies=20", "--hitch", "oneform", "--threads", "2", "--order", "4", "--dt", "0.05", "--t-end", "3"}, "csv", 21},
       {"chain dense backend", {"sleigh_chain", "--set", "bodies=10", "--backend", "dense", "--t-end", "3"}, "csv", 101},
       {"chain CHOLMOD", {"sleigh_chain", "--set", "bodies=10", "--backend", "cholmod-amd", "--t-end", "3"}, "csv", 101},
       {"train (forces, stability watch)", {"wheeled_train", "--set", "bodies=20", "--t-end", "3"}, "csv", 101},

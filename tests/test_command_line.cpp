@@ -243,6 +243,33 @@ void expect_failure(const std::vector<std::string>& args, const std::string& fra
   EXPECT_THAT(r.err + r.out, HasSubstr(fragment)) << ::testing::PrintToString(args);
 }
 
+// --threads splits a one-form chain's step (WorkspaceOptions::threads) and the summary says how
+// many ran: the run agrees with one thread's to round-off; below 2 kBodiesPerThread the default
+// is one thread; threads that cannot help are run on one, with a warning.
+TEST(CommandLine, ThreadsSplitAChainAndAreReported) {
+  const std::vector<std::string> base{"run", "sleigh_chain", "--set", "bodies=40", "--set", "k=2", "--hitch", "oneform"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = base;
+    args.insert(args.end(), extra.begin(), extra.end());
+    const Result r = run(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    return parse_summary(r.out);
+  };
+  auto one = with({"--threads", "1"}), four = with({"--threads", "4"}), automatic = with({});
+  EXPECT_EQ(one["threads"], "1");
+  EXPECT_EQ(four["threads"], "4");
+  EXPECT_EQ(automatic["threads"], "1") << "40 bodies are below the automatic threshold";
+  EXPECT_EQ(four["status"], "ok");
+  for (const char* key : {"energy_rel_err_max", "gap_max", "parasitic_max", "extent"})
+    EXPECT_NEAR(std::stod(four[key]), std::stod(one[key]), 1e-6 * std::stod(one[key])) << key;
+  EXPECT_EQ(four["restarts"], one["restarts"]);
+  const Result holonomic = run({"run", "sleigh_chain", "--set", "bodies=40", "--threads", "2"});
+  EXPECT_EQ(holonomic.code, 0) << holonomic.err;
+  EXPECT_EQ(parse_summary(holonomic.out)["threads"], "1");
+  EXPECT_THAT(holonomic.err, HasSubstr("--threads 2: ran on one thread"));
+  EXPECT_THAT(holonomic.err, HasSubstr("holonomic hitches are not split yet"));
+}
+
 TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
   expect_failure({"run", "sled"}, "unknown scene 'sled' (known: particle, sleigh, sleigh_contact, snakeboard, sleigh_chain, wheeled_train, suslov, veselova, chaplygin_ball, ball_chain, rolling_disk)");
   expect_failure({"run", "sleigh", "--set", "mass=2"},
@@ -288,6 +315,10 @@ TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {
                  "--monitor-every 0 turns off the measurement that --restart auto needs");
   expect_failure({"run", "sleigh", "--method", "rk4", "--restart", "auto"}, "--restart applies to the reflection method only");
   expect_failure({"run", "sleigh_chain", "--set", "bodies=0"}, "parameter bodies = 0 must be a whole number");
+  expect_failure({"run", "sleigh_chain", "--threads", "-1"},
+                 "--threads -1: give the threads for one step of the chain, or 0 to let the run choose");
+  expect_failure({"run", "sleigh_chain", "--set", "bodies=40", "--hitch", "oneform", "--threads", "21"},
+                 "--threads 21 for 40 bodies: each thread needs at least 2 bodies, so at most 20");
   expect_failure({"run", "sleigh_chain", "--backend", "block-diagonal"},
                  "backend block-diagonal: C has a coupled block of 28 one-forms");
   // Dependent one-forms at the start: wheels on one line (r = 0, phi0 = 0).

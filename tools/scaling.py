@@ -30,7 +30,8 @@ SERIES = [  # benchmark family, label in the table and plot
 def run(bench, repetitions, out):
     cmd = [bench, "--benchmark_format=json", "--benchmark_out=" + out,
            "--benchmark_repetitions=%d" % repetitions,
-           "--benchmark_report_aggregates_only=true"]
+           "--benchmark_report_aggregates_only=true",
+           "--benchmark_filter=-Threads"]  # one chain on threads: tools/thread_scaling.py
     print("running", " ".join(cmd), file=sys.stderr)
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
 

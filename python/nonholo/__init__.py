@@ -265,7 +265,7 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
         project: bool = False, tol: Optional[_Real] = None, rotation: Optional[str] = None,
         accuracy: Optional[_Real] = None, out: Optional[_Path] = None, check: bool = False,
         checkpoint: Optional[_Path] = None, checkpoint_every: Union[str, _Integer, None] = None,
-        resume: Optional[_Path] = None) -> RunResult:
+        resume: Optional[_Path] = None, threads: Optional[_Integer] = None) -> RunResult:
     """Integrates one scene (a built-in name or a scene file) as `nonholo run` does and
     returns a RunResult with its frames and summary.
 
@@ -281,6 +281,8 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
     or HDF5 for .h5). With rigid bodies q holds each body's quaternion (w, x, y, z) and centre.
     checkpoint (an .h5 path) writes the run's whole state at its end (also when it fails or
     Ctrl-C stops it) and, with checkpoint_every (steps, or "60s"), during it;
+    threads splits one step of a chain (hitch "oneform") over that many threads (default: one
+    thread per 500 bodies, up to every usable core; summary["threads"] says how many ran).
     run(resume=path, t_end=...) continues such a run bit for bit, with the checkpoint's options
     (no scene or other option then), its frames from where it resumed (the output file has the
     earlier ones). Bad options raise ValueError with the tool's message, naming the keywords
@@ -293,7 +295,7 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
             ("scene", scene), ("dt", dt), ("set", set), ("method", method), ("order", order), ("hitch", hitch),
             ("every", every), ("backend", backend), ("restart", restart), ("restart_tol", restart_tol),
             ("monitor_every", monitor_every), ("composition", composition), ("tol", tol), ("rotation", rotation),
-            ("accuracy", accuracy), ("out", out)) if value is not None]
+            ("accuracy", accuracy), ("out", out), ("threads", threads)) if value is not None]
         given += [name for name, flag in (("error_estimate", error_estimate), ("project", project)) if flag]
         if given:
             raise ValueError("%s with resume: a resumed run takes its scene and options from the checkpoint (only "
@@ -308,6 +310,7 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
                               monitor_every, composition, error_estimate, project, tol, rotation, accuracy)
         _option(args, "every", "--every", every, _integer)
         _option(args, "out", "--out", out, _text)
+        _option(args, "threads", "--threads", threads, _integer)
     _option(args, "checkpoint", "--checkpoint", checkpoint, _text)
     _option(args, "checkpoint_every", "--checkpoint-every", checkpoint_every,
             lambda k, v: _text(k, v) if isinstance(v, str) else _integer(k, v))

@@ -182,17 +182,23 @@ namespace {
 void bind_workspace(py::module_& m) {
   py::class_<Workspace>(m, "Workspace", R"(Every buffer and the factorisation one thread needs to integrate a model
 (one Workspace per thread; it keeps its model alive). backend: 'auto', 'block-diagonal',
-'dense', 'banded', 'cholmod-natural' or 'cholmod-amd'. message says why the last call failed.
-One call at a time: see step().)")
-      .def(py::init([](const PyModel& model, const std::string& backend, bool composed_steps, bool dla_steps) {
+'dense', 'banded', 'cholmod-natural' or 'cholmod-amd'. threads splits one step of a chain of knife
+edges and hitches (one-form hitches) over that many threads, at most half its bodies
+(ValueError above); other models and steps run on one (see the threads property). message says
+why the last call failed. One call at a time: see step().)")
+      .def(py::init([](const PyModel& model, const std::string& backend, bool composed_steps, bool dla_steps,
+                       int threads) {
              WorkspaceOptions o;
              o.backend = sparse::backend_from_string(backend);
              o.composed_steps = composed_steps;
              o.dla_steps = dla_steps;
+             o.threads = threads;
              return std::make_unique<Workspace>(model.model, o);
            }),
            py::arg("model"), py::arg("backend") = "auto", py::kw_only(), py::arg("composed_steps") = true,
-           py::arg("dla_steps") = true, py::keep_alive<1, 2>())
+           py::arg("dla_steps") = true, py::arg("threads") = 1, py::keep_alive<1, 2>())
+      .def_property_readonly("threads", &Workspace::threads,
+                             "The threads a step of this model uses (threads where it applies, else 1).")
       .def_property_readonly("message", [](const Workspace& ws) { return std::string(ws.message()); },
                              "Why the last failed call failed ('' if it did not).")
       .def_property_readonly("backend", [](const Workspace& ws) { return std::string(ws.backend_name()); },

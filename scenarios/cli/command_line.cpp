@@ -207,6 +207,9 @@ void add_run_command(CLI::App* cmd, RunOptions& run, std::string& checkpoint_eve
                   "write the trajectory to FILE.csv, or FILE.h5 / FILE.hdf5 (HDF5, with p, gap and the summary), or "
                   "- (CSV on standard output; the summary line then goes to standard error)");
   cmd->add_option("--every", run.config.every, "write every K-th step to the CSV (default 1)");
+  cmd->add_option("--threads", run.config.threads,
+                  "threads for one step of the chain (--hitch oneform, a chain of knife edges and hitches): "
+                  "default 0: a thread per 500 bodies, up to every core this process may use");
   cmd->add_option("--checkpoint", run.config.checkpoint_path,
                   "write the run's whole state to this HDF5 file at its end (also when it fails or is "
                   "interrupted), atomically; --resume continues it bit for bit");

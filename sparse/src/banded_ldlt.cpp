@@ -61,27 +61,27 @@ FactorStatus BandedLdlt::factorize_in_place(double min_pivot_ratio) {
 }
 
 void BandedLdlt::begin_rows() {
-  row_min_ratio_ = size() == 0 ? 1.0 : std::numeric_limits<double>::infinity();
-  row_min_row_ = -1;
-  bad_row_ = -1;
+  log_ = PivotLog{};
+  if (size() == 0) log_.min_ratio = 1.0;
 }
 
 FactorStatus BandedLdlt::finish_rows(double min_pivot_ratio) {
-  if (bad_row_ < 0) {
-    set_pivot_summary(row_min_ratio_, row_min_row_);
+  if (log_.bad_row < 0) {
+    set_pivot_summary(log_.min_ratio, log_.min_row);
     set_failed_row(-1);
     clear_message();
     return FactorStatus::Ok;
   }
-  const int r = bad_row_;
-  const double ratio = bad_pivot_ / bad_diagonal_;
+  const int r = log_.bad_row;
+  const double pivot = log_.bad_pivot, diagonal = log_.bad_diagonal;
+  const double ratio = pivot / diagonal;
   set_pivot_summary(ratio, r);
   set_failed_row(r);
-  if (!std::isfinite(bad_pivot_) || !std::isfinite(bad_diagonal_))
-    return fail(FactorStatus::NonFinite, "row %d of C: pivot %g, diagonal %g", r, bad_pivot_, bad_diagonal_);
-  if (!(bad_diagonal_ > 0.0))
+  if (!std::isfinite(pivot) || !std::isfinite(diagonal))
+    return fail(FactorStatus::NonFinite, "row %d of C: pivot %g, diagonal %g", r, pivot, diagonal);
+  if (!(diagonal > 0.0))
     return fail(FactorStatus::NotPositiveDefinite, "row %d of C has diagonal %g: that one-form vanishes here", r,
-                bad_diagonal_);
+                diagonal);
   if (!(ratio > 0.0))
     return fail(FactorStatus::NotPositiveDefinite,
                 "pivot of row %d of C is %g times its diagonal: the one-forms are dependent", r, ratio);

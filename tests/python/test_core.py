@@ -471,6 +471,33 @@ def test_steps_without_the_gil_matches_repeated_step_on_an_element_chain():
     np.testing.assert_array_equal(s3.q, s1.q)
 
 
+def test_a_chain_built_in_python_steps_on_threads():
+    # WorkspaceOptions.threads from Python: an element chain's one-form step on 3 threads is the
+    # one-thread step to round-off (another elimination order).
+    model = chain_builder(12).build()
+    ws1, ws3 = nonholo.Workspace(model), nonholo.Workspace(model, threads=3)
+    assert (ws1.threads, ws3.threads) == (1, 3)
+    s1, s3 = chain_start(model, ws1), chain_start(model, ws3)
+    options = nonholo.RattleOptions(0.01, hitch="oneform")
+    assert nonholo.steps(model, ws1, s1, options, 500) == nonholo.Status.Ok, ws1.message
+    assert nonholo.steps(model, ws3, s3, options, 500) == nonholo.Status.Ok, ws3.message
+    np.testing.assert_allclose(s3.q, s1.q, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(s3.p, s1.p, rtol=0, atol=1e-11)
+    with pytest.raises(ValueError, match="at most 6 threads"):
+        nonholo.Workspace(model, threads=7)
+    # A thrust given as a Python callable: called on the calling thread, before the others start.
+    driven = chain_builder(12, thrust=lambda t: 1.0).build()
+    wd = nonholo.Workspace(driven, threads=3)
+    assert wd.threads == 3
+    sd = chain_start(driven, wd)
+    assert nonholo.steps(driven, wd, sd, options, 500) == nonholo.Status.Ok, wd.message
+    constant = chain_builder(12, thrust=1.0).build()
+    wc = nonholo.Workspace(constant)
+    sc = chain_start(constant, wc)
+    assert nonholo.steps(constant, wc, sc, options, 500) == nonholo.Status.Ok, wc.message
+    np.testing.assert_allclose(sd.q, sc.q, rtol=0, atol=1e-11)
+
+
 def test_steps_lets_other_python_threads_run():
     # With the GIL held for the whole call, the main thread could not count while it runs.
     model = chain_builder(2000).build()

@@ -46,6 +46,20 @@ def test_arrays_have_the_documented_shapes_and_types():
     assert "energy_rel_err_max=%s" % format(s["energy_rel_err_max"], ".6g") in r.line
 
 
+def test_threads_split_a_one_form_chain_as_the_tool_does():
+    done = cli("run", "sleigh_chain", "--set", "bodies=30", "--hitch", "oneform", "--threads", "3", "--t-end", "1")
+    assert done.returncode == 0, done.stderr
+    r = nonholo.run("sleigh_chain", set={"bodies": 30}, hitch="oneform", threads=3, t_end=1)
+    assert r.summary["threads"] == 3
+    assert without_timings(r.line) == without_timings(done.stdout.strip())
+    one = nonholo.run("sleigh_chain", set={"bodies": 30}, hitch="oneform", threads=1, t_end=1)
+    assert one.summary["threads"] == 1
+    assert np.allclose(r.q, one.q, rtol=0, atol=1e-12)  # round-off: another elimination order
+    with pytest.raises(ValueError) as e:
+        nonholo.run("sleigh_chain", set={"bodies": 30}, hitch="oneform", threads=16)
+    assert "threads=16 for 30 bodies: each thread needs at least 2 bodies, so at most 15" in str(e.value)
+
+
 @pytest.mark.parametrize("kwargs, cli_args, cli_message, message", [
     ({"dt": -1.0}, ["--dt", "-1.0"], "--dt -1.000000: the step must be positive",
      "dt=-1.000000: the step must be positive"),

@@ -20,6 +20,10 @@
 
 namespace nonholo {
 
+namespace detail {
+struct ChainPartitions;  // core/src/step/chain/chain_partitions.hpp
+}
+
 /// How a Workspace is built.
 struct WorkspaceOptions {
   /// The factorisation of C. Auto picks by the pattern of C (sparse::resolve_backend), except
@@ -35,7 +39,19 @@ struct WorkspaceOptions {
   /// steps on such a workspace fail with MethodNotApplicable. (A model without its own bias
   /// gets the copy anyway: its bias by differences needs it.)
   bool dla_steps = true;
+  /// Threads for one step of one chain (docs/design.md, "One chain on several threads"): the
+  /// common chain of knife edges and hitches (ElementSet::hitched_chain; springs and thrusts
+  /// too) in one-form mode is split into this many partitions of consecutive bodies, one per
+  /// thread, at construction (std::invalid_argument for fewer than 1, or more than half the
+  /// bodies). Thrust callbacks are called on the calling thread, before the others start.
+  /// Other models and holonomic steps run on one thread. Threads only pay where cores are
+  /// free: not inside a batch, which already gives each core a trajectory.
+  int threads = 1;
 };
+
+/// The most threads WorkspaceOptions::threads can give one step of `model`: half its bodies for
+/// the common chain of knife edges and hitches (springs and thrusts allowed), else 1.
+int max_step_threads(const Model& model);
 
 /// One thread's buffers and factorisation for one Model (see workspace.hpp).
 /// Cache-line aligned (and so padded): the workspaces of a batch's threads are written at every
@@ -47,6 +63,7 @@ class alignas(128) Workspace {
   explicit Workspace(const Model& model, const WorkspaceOptions& options = {});
   /// The workspace keeps a pointer to the model: one built from a temporary would dangle.
   explicit Workspace(const Model&& model, const WorkspaceOptions& options = {}) = delete;
+  ~Workspace();
 
   const Model& model() const { return *model_; }  ///< the model it was built for
   /// The factorisation in use (see sparse::Backend); "none" for a model without one-forms.
@@ -54,6 +71,8 @@ class alignas(128) Workspace {
   sparse::Backend backend() const;
   const char* backend_name() const;
   ///@}
+  /// The threads a step of this model uses (WorkspaceOptions::threads where it applies, else 1).
+  int threads() const;
   /// Why the last failed call failed ("" if it did not).
   const char* message() const { return message_.c_str(); }
   /// Held by the call that uses the workspace (busy_flag.hpp).
@@ -180,14 +199,26 @@ class alignas(128) Workspace {
   /// Without `mu_written` the values are filled from chain_sincos when first asked for
   /// (evaluate_one_forms): a one-form step does not need them, only a restart or diagnose().
   ///@{
-  void forget_one_forms() { key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = false; }
+  void forget_one_forms() { key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = parted_ = false; }
   double* one_form_key() { return mu_q_.data(); }
   void forget_sincos() { sincos_valid_ = false; }  ///< chain_sincos reused for another q
-  void one_forms_factorized_at_key(bool mu_written) {
+  void one_forms_factorized_at_key(bool mu_written, bool parted = false) {
     key_valid_ = factor_valid_ = sincos_valid_ = true;
     mu_valid_ = mu_written;
+    parted_ = parted;
     ++factorizations;
   }
+  /// The partitions of a chain split over threads (nullptr on one thread), and whether the
+  /// factorisation is theirs (a partitioned step's: solve() then solves with it; the passes
+  /// that read the band row by row need a factorisation in natural order, factorize_serial_at).
+  ///@{
+  detail::ChainPartitions* partitions() { return partitions_.get(); }
+  bool factor_parted() const { return parted_; }
+  ///@}
+  /// factorize_at(q), but C(q) factorised in the band's natural order (refactorised when a
+  /// partitioned step left it partitioned): the holonomic corrections and the one-pass mode
+  /// measurement read it row by row.
+  Status factorize_serial_at(ConstVecRef q, double min_pivot_ratio);
   ///@}
   /// Checkpoints (archive.hpp): what a step leaves for the next one, the one-forms, C(q)
   /// factorised and a chain's sines and cosines at the state's q, so that a resumed run's first
@@ -202,7 +233,7 @@ class alignas(128) Workspace {
   /// Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
   bool sincos_hold(ConstVecRef q) const;
   /// ... and C(q) is factorised (one comparison of q).
-  bool chain_factor_holds(ConstVecRef q) const { return factor_valid_ && sincos_hold(q); }
+  bool chain_factor_holds(ConstVecRef q) const { return factor_valid_ && !parted_ && sincos_hold(q); }
   /// chain_sincos now holds sin/cos of the q of the one-form cache (computed by the caller).
   void sincos_computed_for_key() { sincos_valid_ = key_valid_; }
   /// The Status and message of a failed factorisation (as factorize() reports it).
@@ -218,9 +249,12 @@ class alignas(128) Workspace {
   bool mu_valid_ = false;     // mu_values holds mu(mu_q_)
   bool factor_valid_ = false;  // the factorisation holds C(mu(mu_q_))
   bool sincos_valid_ = false;  // chain_sincos holds sin/cos of mu_q_ (fused workspaces only)
+  bool parted_ = false;        // the factorisation is partitions_' (a partitioned step's)
+  std::unique_ptr<detail::ChainPartitions> partitions_;
   bool options_known_ = false;  // options_ passed step()'s checks
   RattleOptions options_;
   Status report_non_finite_one_forms();
+  void set_up_threads(int threads);
   // " (row r is <label>)" for a labelled row of mu or C, "" otherwise; no allocation.
   const char* row_note(int row);
   char row_note_[256] = "";

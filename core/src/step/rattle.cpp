@@ -76,7 +76,8 @@ Status enforce_gaps(const Model& model, Workspace& ws, const State& s, const Rat
   const bool chain = ws.fused() && model.element_set()->hitched_chain;
   Status status = Status::Ok;
   if (!chain || !ws.chain_factor_holds(s.q)) {  // a fused step to q_k left both C(q_k) and them
-    if ((status = ws.factorize_at(s.q, o.min_pivot_ratio)) != Status::Ok) return status;
+    // The corrections read C(q_k)'s factorisation row by row: in natural order.
+    if ((status = ws.factorize_serial_at(s.q, o.min_pivot_ratio)) != Status::Ok) return status;
     if (chain) {
       detail::chain_sincos_of(model, s.q, ws.chain_sincos);
       ws.sincos_computed_for_key();

@@ -2,12 +2,16 @@
 // factorised and solved with named failures, and the caches a checkpoint keeps.
 #include <nonholo/workspace.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "model/element_set.hpp"
+#include "step/chain/chain_partitions.hpp"
 #include "step/chain/chain_sweep.hpp"
 
 namespace nonholo {
@@ -63,6 +67,32 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   if (fused() && model.element_set()->hitched_chain) chain_sincos_prev.setZero(2 * model.num_bodies());
   // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
   if (factor_ && !factor_->values_in_place()) c_values.setZero(model.gram().pattern().nnz());
+  set_up_threads(options.threads);
+}
+
+Workspace::~Workspace() = default;
+
+// One chain on several threads (chain_partitions.hpp): the common chain of knife edges and hitches.
+void Workspace::set_up_threads(int threads) {
+  const int bodies = model_->num_bodies();
+  if (threads < 1)
+    throw std::invalid_argument("WorkspaceOptions::threads = " + std::to_string(threads) + ": give 1 or more");
+  if (threads == 1) return;
+  if (threads > bodies / 2)
+    throw std::invalid_argument("WorkspaceOptions::threads = " + std::to_string(threads) + " for " +
+                                std::to_string(bodies) + " bodies: each thread needs at least 2 bodies, so at most " +
+                                std::to_string(bodies / 2) + " threads");
+  if (fused() && max_step_threads(*model_) > 1)
+    partitions_ = std::make_unique<detail::ChainPartitions>(bodies, threads,
+                                                            static_cast<int>(model_->element_set()->thrusts.size()));
+}
+
+int Workspace::threads() const { return partitions_ ? partitions_->parts : 1; }
+
+int max_step_threads(const Model& model) {
+  const detail::ElementSet* set = model.element_set();
+  const bool chain = model.is_chain() && model.num_one_forms() > 0 && set && set->hitched_chain;
+  return chain ? std::max(1, model.num_bodies() / 2) : 1;
 }
 
 sparse::Backend Workspace::backend() const {
@@ -85,7 +115,7 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
     }
     return Status::Ok;
   }
-  key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = false;
+  key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = parted_ = false;
   if (model_->num_one_forms() == 0) return Status::Ok;
 #ifndef NDEBUG
   // Debug builds: a value function that fills too few values leaves NaN, which factorize()
@@ -115,7 +145,8 @@ void Workspace::save_held(OutArchive& a) const {
   if (key_valid_) a(mu_q_);
   if (mu_valid_) a(mu_values);
   if (sincos_valid_) a(chain_sincos);
-  std::vector<double>* numbers = factor_valid_ && factor_ ? factor_->numeric_state() : nullptr;
+  // A partitioned factorisation is not saved: the loading workspace factorises again.
+  std::vector<double>* numbers = factor_valid_ && !parted_ && factor_ ? factor_->numeric_state() : nullptr;
   a(numbers != nullptr);
   if (numbers) a(Eigen::Map<const Vector>(numbers->data(), static_cast<Eigen::Index>(numbers->size())));
 }
@@ -138,6 +169,10 @@ void Workspace::load_held(InArchive& a, double min_pivot_ratio) {
   mu_valid_ = mu;
   sincos_valid_ = sincos;
   if (factor && !numbers) {  // factorise again (the step's own code for these backends), uncounted
+    if (key && !mu && sincos && fused()) {  // a partitioned step's: mu from its sin/cos
+      detail::chain_one_forms_from_sincos(*model_, *this);
+      mu = true;
+    }
     const long counted = factorizations;
     const Status s = key && mu ? factorize(min_pivot_ratio) : Status::Ok;
     factorizations = counted;
@@ -176,7 +211,7 @@ const char* Workspace::row_note(int row) {
 Status Workspace::factorize(double min_pivot_ratio) {
   if (!factor_) return Status::Ok;
   using sparse::FactorStatus;
-  factor_valid_ = false;
+  factor_valid_ = parted_ = false;
   ++factorizations;
   FactorStatus s;
   if (fused()) {  // a chain: its rows straight into the band (chain_passes.cpp)
@@ -223,8 +258,18 @@ Status Workspace::factorize_at(ConstVecRef q, double min_pivot_ratio) {
   return factorize(min_pivot_ratio);
 }
 
+Status Workspace::factorize_serial_at(ConstVecRef q, double min_pivot_ratio) {
+  const Status status = evaluate_one_forms(q);
+  if (status != Status::Ok || (factor_valid_ && !parted_)) return status;
+  return factorize(min_pivot_ratio);
+}
+
 Status Workspace::solve(const double* b, double* x) {
   if (!factor_) return Status::Ok;
+  if (parted_) {
+    detail::solve_parted(*model_, *this, b, x);
+    return Status::Ok;
+  }
   if (factor_->solve(b, x) != sparse::FactorStatus::Ok)
     return fail(Status::LinearSolverFailure, "%s", factor_->message());
   return Status::Ok;

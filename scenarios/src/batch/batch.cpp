@@ -155,6 +155,7 @@ void BatchRun::check_options() {
 
 void BatchRun::prepare() {
   run_config_ = config_.run;
+  run_config_.threads = 1;  // the batch's threads run trajectories, each on one
   run_config_.csv_path.clear();
   run_config_.sink = nullptr;
   prepared_ = prepare_run(run_config_);
@@ -253,6 +254,7 @@ void BatchRun::integrate_row(long i, Row& row) {
   hooks.final_state = keep_states_;
   TrajectoryResult r = integrate_scene(prepared_, p, run_config_, hooks);
   row.summary = std::move(r.summary);
+  row.summary.threads = 0;  // the batch line reports its own threads
   row.final_q = std::move(r.final_q);
   if (keep_states_) {
     row.final_p = std::move(r.final_p);

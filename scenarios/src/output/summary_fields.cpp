@@ -55,6 +55,7 @@ std::vector<SummaryField> RunSummary::fields() const {
   if (!std::isnan(extent)) number("extent", extent);
   if (!std::isnan(stability_ratio)) number("stability_ratio", stability_ratio);
   text("backend", backend);
+  if (threads > 0) integer("threads", threads);
   text("status", to_string(status));
   return f;
 }

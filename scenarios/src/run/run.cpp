@@ -32,6 +32,9 @@ constexpr int kAccuracyEvery = 64;
 void choose_method(const RunConfig& config, PreparedRun& r) {
   r.choice.method = config.method;
   r.choice.backend = config.backend;
+  if (config.threads < 0)
+    throw std::invalid_argument("--threads " + std::to_string(config.threads) +
+                                ": give the threads for one step of the chain, or 0 to let the run choose");
   r.choice.rattle.h = r.dt;
   r.choice.rattle.hitch = config.hitch;
   set_restart(r.choice.rattle.restart, config.restart);

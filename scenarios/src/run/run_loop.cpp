@@ -1,6 +1,7 @@
 // One trajectory as named phases (run_loop.hpp): set-up, outputs, start or resume, the loop of
 // steps with the bounds each step is held to, the final checkpoint and the verdicts.
 #include "run/run_loop.hpp"
+#include "run/thread_choice.hpp"
 
 #include <nonholo/scenarios/interrupt.hpp>
 #include <nonholo/scenarios/scene_file.hpp>
@@ -140,13 +141,22 @@ void RunLoop::set_up() {
   bodies = setup_->model.num_bodies();
   if (hooks_.on_model) hooks_.on_model(setup_->model);
   const SetupPhase phase = status;
+  const ThreadChoice threads =
+      choose_threads(config_.threads, setup_->model, reflection_, config_.hitch == HitchMode::OneForm);
+  thread_warning_ = threads.warning;
+  MethodChoice choice = run_.choice;
+  choice.threads = threads.threads;
   try {
-    runner_ = make_runner(*setup_, run_.choice, phase);
+    runner_ = make_runner(*setup_, choice, phase);
   } catch (const std::invalid_argument& e) {  // a scene file's start: name the file
     if (!is_scene_file(config_.scene)) throw;
     throw std::invalid_argument(config_.scene + ": " + e.what());
   }
-  if (config_.error_estimate) companion_ = make_runner(*setup_, run_.companion.choice, phase);
+  if (config_.error_estimate) {
+    MethodChoice companion = run_.companion.choice;
+    companion.threads = threads.threads;
+    companion_ = make_runner(*setup_, companion, phase);
+  }
 }
 
 // A resumed run: the loop's state from the checkpoint (after the options, which prepare_run
@@ -185,6 +195,8 @@ void RunLoop::describe_run() {
   summary.scene = run_.info.name;
   summary.method = config_.method;
   summary.backend = runner_->backend();
+  summary.threads = runner_->threads();
+  add_warning(summary, thread_warning_);
   // The reference methods treat hitch rows as velocity constraints, closed by --project.
   summary.hitch = reflection_ ? to_string(config_.hitch)
                               : !reference_method(config_.method) ? "oneform"
@@ -430,6 +442,7 @@ void RunLoop::write_checkpoint_now(long k) {
   OutArchive out;
   RunConfig effective = config_;
   effective.horizon = run_.choice.adaptive.horizon;
+  effective.threads = runner_->threads();  // a resumed run splits the chain as this one did
   effective.resume_path.clear();
   // Absolute paths: a resume from another directory still finds the output and the scene file.
   if (!effective.csv_path.empty()) effective.csv_path = std::filesystem::absolute(effective.csv_path).string();

@@ -108,6 +108,7 @@ class RunLoop {
   bool exact_work_ = false;  // ... by the order-2 reflection step's discrete identity
   Vector force_, j_;         // scratch: F(t, q), the momentum maps
   double speed_floor_ = 0.0;
+  std::string thread_warning_;  // set_up's: threads asked for that do not all help
 
   Clock::time_point loop_start_, last_checkpoint_, last_flush_;
   double output_s_ = 0.0, companion_s_ = 0.0, loop_s_ = 0.0;

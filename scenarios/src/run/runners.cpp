@@ -31,16 +31,26 @@ double relative_residual_at(const Model& model, Workspace& ws, ConstVecRef q, Co
 void save_counters(OutArchive& a, const Workspace& ws) { a(ws.factorizations), a(ws.legendre_iterations), a(ws.parasitic); }
 void load_counters(InArchive& a, Workspace& ws) { a(ws.factorizations), a(ws.legendre_iterations), a(ws.parasitic); }
 
+// The reflection runner's workspaces: composed steps' room only for orders above 2, no DLA
+// copy of mu, the step's threads (its accuracy check's shadow steps on them too).
+WorkspaceOptions reflection_workspace(const MethodChoice& c) {
+  WorkspaceOptions o;
+  o.backend = c.backend;
+  o.composed_steps = c.rattle.order > 2;
+  o.dla_steps = false;
+  o.threads = c.threads;
+  return o;
+}
+
 class ReflectionRunner final : public Runner {
  public:
   ReflectionRunner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase)
-      : model_(setup.model), ws_(setup.model, {c.backend, c.rattle.order > 2, false}), options_(c.rattle) {
+      : model_(setup.model), ws_(setup.model, reflection_workspace(c)), options_(c.rattle) {
     announce(phase, "starting");
     state_ = start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0);
     if (c.adaptive_on()) stepper_ = std::make_unique<AdaptiveStepper>(setup.model, c.rattle, c.adaptive);
     if (c.accuracy_every > 0)
-      watch_ = std::make_unique<AccuracyWatch>(setup.model, WorkspaceOptions{c.backend, c.rattle.order > 2, false},
-                                               c.rattle, c.accuracy_every);
+      watch_ = std::make_unique<AccuracyWatch>(setup.model, reflection_workspace(c), c.rattle, c.accuracy_every);
   }
   Status advance(double t_next) override {
     if (stepper_) {  // pairs of adaptive steps, the last landing on t_next
@@ -70,6 +80,7 @@ class ReflectionRunner final : public Runner {
   ConstVecRef p() override { return state_.p; }
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return ws_.backend_name(); }
+  int threads() const override { return ws_.threads(); }
   double parasitic() const override { return ws_.parasitic; }
   long restarts() const override { return state_.restarts; }
   long legendre_iterations() const override { return ws_.legendre_iterations; }

@@ -32,6 +32,7 @@ class Runner {
   virtual ConstVecRef p() = 0;
   virtual std::string message() const = 0;
   virtual std::string backend() const = 0;
+  virtual int threads() const { return 1; }  // threads one step uses
   virtual long rhs_evaluations() const { return -1; }  // -1: not counted
   // ARKODE and adaptive composed steps: their own steps so far (-1 for the fixed-step methods).
   virtual long internal_steps() const { return -1; }
@@ -71,6 +72,7 @@ struct MethodChoice {
   RattleOptions rattle;               // reflection
   reference::Options reference;       // the others
   sparse::Backend backend = sparse::Backend::Auto;
+  int threads = 1;  // reflection: WorkspaceOptions::threads (RunConfig::threads resolved for the model)
   // Steps between two samples of the accuracy check (0: off; docs/guide/methods.md "Accuracy check").
   int accuracy_every = 32;
   // Reflection, orders 4-8: adaptive composed steps when tol > 0 (RunConfig::adaptive).

@@ -15,6 +15,7 @@
 #include <limits>
 
 #include "model/element_set.hpp"
+#include "step/chain/chain_partitions.hpp"
 #include "step/chain/chain_rows.hpp"
 #include "step/chain/chain_sweep.hpp"
 #include "step/restart_internal.hpp"
@@ -103,6 +104,7 @@ Status measure(const Model& model, Workspace& ws, const double* p, const double*
 
 Status chain_measure(const Model& model, Workspace& ws, const double* p, const double* lambda, double h,
                      const State* from, double& amplitude) {
+  if (ws.factor_parted()) return chain_measure_parted(model, ws, p, lambda, h, from, amplitude);
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   switch (ws.banded()->bandwidth()) {
     case 0: return measure<0>(model, ws, p, lambda, h, from, amplitude);

@@ -18,124 +18,13 @@
 #include <cmath>
 
 #include "model/element_set.hpp"
+#include "step/chain/chain_partitions.hpp"
 #include "step/chain/chain_rows.hpp"
 #include "step/chain/chain_sweep.hpp"
+#include "step/chain/sweep_common.hpp"
 
 namespace nonholo::detail {
 namespace {
-
-// A sum over a million bodies in blocks of 64: its round-off grows like (64 + N/64) eps
-// rather than N eps (the energies of a 10^5-body chain: 7e-12 relative in one running sum).
-struct BlockSum {
-  double total = 0.0, part = 0.0;
-  int count = 0;
-  void add(double x) {
-    part += x;
-    if (++count == 64) {
-      total += part;
-      part = 0.0;
-      count = 0;
-    }
-  }
-  double value() const { return total + part; }
-};
-
-// What every sweep does as body i enters the forward sweep: the half kick and drift (unless
-// holonomic mode did them, `kicked`), the cache key, the sums for energy_post and the
-// finiteness check, sin/cos of the new angle (unless the holonomic gap pass left them), and with
-// forces, body i's thrusts and the springs between bodies i-1 and i at t_{k+1} (then body
-// i-1's applied force is complete).
-// A row failed its pivot test: the status and message factorize() would give.
-inline Status pivot_failure(Workspace& ws, sparse::BandedLdlt& band, double min_pivot_ratio) {
-  ++ws.factorizations;
-  return ws.report_factor_failure(band.finish_rows(min_pivot_ratio));
-}
-
-struct Forward {
-  const ElementSet& set;
-  const ChainBodies body;
-  const double *q, *p, *force;
-  double *qn, *ph, *fa, *key, *sc;
-  double *pn, *fn, *lam, *mu;  // p^ then p~_{k+1}; force_{k+1}; rhs, y, then lambda~; mu values
-  double h, t_next;
-  bool kicked, forced;
-  std::size_t next_thrust = 0;
-  BlockSum kinetic_post;
-  double potential_old = 0.0, potential_new = 0.0, check = 0.0;
-
-  Forward(const Model& model, Workspace& ws, const State& st, double step, double t, bool was_kicked)
-      : set(*model.element_set()), body(set.chain_bodies()), q(st.q.data()), p(st.p.data()),
-        force(st.force.data()), qn(ws.q_next.data()), ph(was_kicked ? ws.p_half.data() : ws.p_next.data()),
-        fa(ws.applied.data()), key(ws.one_form_key()), sc(ws.chain_sincos.data()), pn(ws.p_next.data()),
-        fn(ws.force_next.data()), lam(ws.lambda.data()), mu(ws.mu_values.data()), h(step), t_next(t),
-        kicked(was_kicked), forced(model.has_applied_force()) {
-    // Every sweep starts so: the cached one-forms are about to be overwritten, and the band
-    // is refilled row by row.
-    ws.forget_one_forms();
-    ws.banded()->begin_rows();
-  }
-
-  // The sweeps' common end: the pivot summary, the caches (mu written or left to
-  // evaluate_one_forms), the diagnostics of the new state, the finiteness sum.
-  Status finish(Workspace& ws, sparse::BandedLdlt& band, double min_pivot_ratio, const BlockSum& kinetic,
-                double residual, double gap, bool mu_written, double& total_check) const {
-    band.finish_rows(min_pivot_ratio);
-    total_check += check;
-    ws.one_forms_factorized_at_key(mu_written);
-    auto& d = ws.step_diagnostics;
-    d.energy = 0.5 * kinetic.value() + potential_new;
-    d.energy_post = 0.5 * kinetic_post.value() + 0.5 * (potential_old + potential_new);
-    d.residual = residual;
-    d.gap = gap;
-    return Status::Ok;
-  }
-
-  // Kicked, Forced: 1 or 0 fixes `kicked` or `forced` at compile time (a small model's sweep
-  // is mostly these branches), -1 reads the member.
-  template <int Kicked = -1, int Forced = -1>
-  void enter(int i, bool trigonometry) {
-    const bool was_kicked = Kicked >= 0 ? Kicked == 1 : kicked;
-    const ChainBody& b = body[i];
-    const double w[3] = {b.wx, b.wy, b.wt};
-    double* qi = qn + 3 * i;
-    double* pi = ph + 3 * i;
-    double kin = 0.0, chk = 0.0;  // one add per body to each long sum (they are serial)
-    for (int c = 0; c < 3; ++c) {
-      if (!was_kicked) {
-        pi[c] = p[3 * i + c] + 0.5 * h * force[3 * i + c];
-        qi[c] = q[3 * i + c] + h * w[c] * pi[c];
-      }
-      key[3 * i + c] = qi[c];
-      kin += w[c] * pi[c] * pi[c];
-      chk += qi[c];
-    }
-    kinetic_post.add(kin);
-    check += chk;
-    if (trigonometry) sin_cos(qi[2], sc + 2 * i);
-    if (!(Forced >= 0 ? Forced == 1 : forced)) return;
-    double* f = fa + 3 * i;
-    f[0] = f[1] = f[2] = 0.0;
-    for (; next_thrust < set.thrusts.size() && set.thrusts[next_thrust].body == i; ++next_thrust) {
-      const Thrust& t = set.thrusts[next_thrust];
-      if (t.force) {
-        const double push = t.force(t_next);
-        f[0] += push * sc[2 * i + 1];
-        f[1] += push * sc[2 * i];
-      }
-      if (t.torque) f[2] += t.torque(t_next);
-    }
-    if (i > 0 && body[i - 1].k != 0.0) {  // springs between i-1 and i, D = theta_{i-1} - theta_i
-      const ChainBody& sb = body[i - 1];
-      const double now = qn[3 * i - 1] - qi[2], old = q[3 * i - 1] - q[3 * i + 2];
-      const double torque = sb.k * now - sb.kr;  // dV/dD
-      fa[3 * i - 1] -= torque;
-      f[2] += torque;
-      potential_new += 0.5 * (sb.k * now * now + sb.krr) - sb.kr * now;
-      potential_old += 0.5 * (sb.k * old * old + sb.krr) - sb.kr * old;
-    }
-  }
-};
-
 // KD: the band's half-bandwidth when known at compile time (the loops unroll), else -1.
 template <int KD>
 Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h, double t_next,
@@ -149,6 +38,7 @@ Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOpt
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
 
+  start_sweep(ws);
   Forward fw(model, ws, st, h, t_next, kicked);
   double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *mu = fw.mu, *sc = fw.sc;
   Group groups[2];        // groups b and b-1, by parity of b
@@ -266,6 +156,7 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
   const bool forced = model.has_applied_force();
 
+  start_sweep(ws);
   Forward fw(model, ws, st, h, t_next, kicked);
   double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *sc = fw.sc;
   double vhat[2][3] = {};
@@ -343,28 +234,12 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
   BlockSum kinetic;
   double residual = 0.0;
   double vlater[3] = {0.0, 0.0, 0.0};  // M^-1 p~ of the body after the one being finished
+  const double* forces = forced ? fa : nullptr;
   auto finish_body = [&](int b) {
+    double v[3];
+    residual = std::max(residual, finish_hitched_body(body, b, sc, lam, half, forces, pn, fn, kinetic, check, v));
     const ChainBody& cb = body[b];
     const double s = sc[2 * b], c = sc[2 * b + 1];
-    const int r = 3 * b;
-    const double lk = lam[r];
-    const double lx = b + 1 < n_bodies ? lam[r + 1] : 0.0, ly = b + 1 < n_bodies ? lam[r + 2] : 0.0;
-    const double px = b > 0 ? lam[r - 2] : 0.0, py = b > 0 ? lam[r - 1] : 0.0;  // hitch b-1 -> b
-    const double fp = b > 0 ? body[b - 1].f : 0.0;
-    const double g3[3] = {s * lk + lx - px, -c * lk + ly - py,
-                          cb.a * lk + cb.d * (s * lx - c * ly) + fp * (s * px - c * py)};
-    double v[3], kin = 0.0, chk = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      const double pc = pn[3 * b + k] + half * g3[k];
-      pn[3 * b + k] = pc;
-      fn[3 * b + k] = forced ? fa[3 * b + k] + g3[k] : g3[k];
-      v[k] = (&cb.wx)[k] * pc;
-      kin += pc * v[k];
-      chk += pc + fn[3 * b + k];
-    }
-    kinetic.add(kin);
-    check += chk;
-    residual = std::max(residual, std::abs(s * v[0] - c * v[1] + cb.a * v[2]));
     if (b + 1 < n_bodies) {
       const double sn = sc[2 * b + 2], cn = sc[2 * b + 3];
       residual = std::max(residual, std::abs(v[0] + cb.d * s * v[2] - vlater[0] + cb.f * sn * vlater[2]));
@@ -408,6 +283,7 @@ Status sweep_knives(const Model& model, Workspace& ws, const State& st, const Ra
   sparse::BandedLdlt& band = *ws.banded();
   const double half = 0.5 * h, rhs_scale = -2.0 / h;
 
+  start_sweep(ws);
   Forward fw(model, ws, st, h, t_next, false);
   double *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *sc = fw.sc;
   BlockSum kinetic;
@@ -451,8 +327,10 @@ Status chain_sweep(const Model& model, Workspace& ws, const State& st, const Rat
   if (knife_sweep(model, ws, kicked))
     return model.has_applied_force() ? sweep_knives<true>(model, ws, st, o, h, t_next, check)
                                      : sweep_knives<false>(model, ws, st, o, h, t_next, check);
-  if (model.element_set()->hitched_chain)  // kd = 4
+  if (model.element_set()->hitched_chain) {  // kd = 4
+    if (ws.partitions() && !kicked) return sweep_hitched_parted(model, ws, st, o, h, t_next, check);
     return sweep_hitched(model, ws, st, o, h, t_next, kicked, check);
+  }
   switch (ws.banded()->bandwidth()) {  // chains: 4 (knife edges and hitches), 0 (knife edges only)
     case 0: return sweep<0>(model, ws, st, o, h, t_next, kicked, check);
     case 3: return sweep<3>(model, ws, st, o, h, t_next, kicked, check);

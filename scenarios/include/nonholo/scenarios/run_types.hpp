@@ -33,6 +33,12 @@ class FrameSink {
   virtual bool stop_requested() { return false; }
 };
 
+/// RunConfig::threads = 0 gives a chain a thread per this many bodies, up to the usable cores:
+/// fewer bodies a thread and the threads' synchronisation at every step costs more than they
+/// save (measured on a 2-core AMD EPYC, default options: 2 threads 1.15 times faster than one
+/// at 1000 bodies, 1.44 at 10^4, docs/results/threads.md).
+inline constexpr int kBodiesPerThread = 500;
+
 /// The options of `nonholo run` (run_scene()).
 struct RunConfig {
   std::string scene;  ///< a built-in scene's name, or a scene file (.json)
@@ -46,6 +52,11 @@ struct RunConfig {
   const std::atomic<bool>* stop = nullptr;
   long every = 1;                        ///< write every K-th step (and the last)
   sparse::Backend backend = sparse::Backend::Auto;  ///< the factorisation of C (`--backend`)
+  /// Threads for one step of the chain (`--threads`, WorkspaceOptions::threads; reflection
+  /// method): 0 picks them: for a chain of knife edges and hitches a thread per
+  /// kBodiesPerThread bodies, up to the cores the process may use, else 1. A batch runs each
+  /// trajectory on one.
+  int threads = 0;
   HitchMode hitch = HitchMode::Holonomic;  ///< reflection: how hitches are kept (`--hitch`)
   std::string restart = "auto";  ///< see set_restart (restart_options.hpp): auto, 0 or K
   double restart_tol = 0.0;      ///< RestartOptions::tolerance (0: min(dt^3, 1e-3))
@@ -109,6 +120,7 @@ struct RunSummary {
   int order = 0;            ///< reflection: 2, 4, 6 or 8 (0: the other methods)
   std::string composition;  ///< reflection with order 4, 6: the composition's name
   int bodies = 0;  ///< bodies in the model
+  int threads = 0;  ///< threads one step used (`nonholo run`; 0: not reported, as in a batch's aggregate)
   Status status = Status::Ok;  ///< how the run ended
   std::string message;  ///< why the run stopped early
   long steps = 0;  ///< steps taken (adaptive steps and ARKODE: output intervals)

@@ -8,6 +8,7 @@
 /// forward_row() per row, back_substitute() at the end. No allocation after construction.
 #include <nonholo/sparse/factorization.hpp>
 
+#include <limits>
 #include <vector>
 
 namespace nonholo::sparse {
@@ -21,6 +22,45 @@ int half_bandwidth(const SymmetricPattern& pattern);
 inline constexpr int kBandedMaxBandwidth = 32;
 bool band_is_compact(const SymmetricPattern& pattern);
 ///@}
+
+/// What the pivot tests of a row-by-row factorisation found: the smallest ratio pivot /
+/// diagonal and its row, or the first row whose test failed. One per thread when threads
+/// eliminate disjoint rows of one band (a partitioned chain step), merged in a fixed order.
+struct PivotLog {
+  double min_ratio = std::numeric_limits<double>::infinity();
+  int min_row = -1, bad_row = -1;  // bad_row: the row whose pivot test failed (-1: none)
+  double bad_pivot = 0.0, bad_diagonal = 0.0;
+  /// The pivot test of row r: the ratio d / diagonal is tested by products (a division is on
+  /// no critical path but the reciprocal's) and divided out only at a new minimum. On success
+  /// `slot` (the band's diagonal) gets 1 / d.
+  bool accept(int r, double* slot, double d, double diagonal, double min_pivot_ratio) {
+    if (!(diagonal > 0.0 && diagonal < kHuge && d >= min_pivot_ratio * diagonal && d > 0.0)) {
+      bad_row = r;
+      bad_pivot = d;
+      bad_diagonal = diagonal;
+      return false;
+    }
+    *slot = 1.0 / d;
+    if (d < min_ratio * diagonal) {
+      min_ratio = d / diagonal;
+      min_row = r;
+    }
+    return true;
+  }
+  /// Takes in another log: the lower failed row, the smaller ratio (the first on a tie).
+  void merge(const PivotLog& other) {
+    if (other.bad_row >= 0 && (bad_row < 0 || other.bad_row < bad_row)) {
+      bad_row = other.bad_row;
+      bad_pivot = other.bad_pivot;
+      bad_diagonal = other.bad_diagonal;
+    }
+    if (other.min_ratio < min_ratio) {
+      min_ratio = other.min_ratio;
+      min_row = other.min_row;
+    }
+  }
+  static constexpr double kHuge = 1.7976931348623157e308;  // largest finite double
+};
 
 /// The Banded backend (see banded_ldlt.hpp).
 class BandedLdlt final : public Factorization {
@@ -58,6 +98,11 @@ class BandedLdlt final : public Factorization {
   /// at compile time (it must equal bandwidth()): the loops unroll.
   template <int KD = -1>
   bool eliminate_row(int r, double min_pivot_ratio) {
+    return eliminate_row<KD>(r, min_pivot_ratio, log_);
+  }
+  /// The same, its pivot test recorded in `log` (a thread's own: merge_pivots() takes it in).
+  template <int KD = -1>
+  bool eliminate_row(int r, double min_pivot_ratio, PivotLog& log) {
     const int kd = KD >= 0 ? KD : kd_;
     double* a = row(r);
     // First valid band column of row r: 0 past the first kd rows (then, with KD fixed, every
@@ -75,7 +120,7 @@ class BandedLdlt final : public Factorization {
       a[t] = lrs;
       d -= w * lrs;
     }
-    return accept_pivot(r, a + kd, d, diagonal, min_pivot_ratio);
+    return log.accept(r, a + kd, d, diagonal, min_pivot_ratio);
   }
   /// y_r = (b_r - sum_s L(r, s) y_s) for s < r: the forward substitution of row r, in place.
   template <int KD = -1>
@@ -116,10 +161,16 @@ class BandedLdlt final : public Factorization {
   ///@{
   template <int KD, int LO>
   bool eliminate_interior_row(int r, double min_pivot_ratio) {
+    double work[KD];
+    return eliminate_interior_row<KD, LO>(r, min_pivot_ratio, log_, work);
+  }
+  /// ... with its own log, leaving L(r, s) D(s) of the columns s = r - KD + t (t >= LO) in
+  /// work[t]: what a border row eliminated beside it needs (chain_partitions.cpp).
+  template <int KD, int LO>
+  bool eliminate_interior_row(int r, double min_pivot_ratio, PivotLog& log, double (&work)[KD]) {
     double* a = row(r);
     const double diagonal = a[KD];
     double d = diagonal;
-    double work[KD];
     for (int t = LO; t < KD; ++t) {
       const double* l = row(r - KD + t);
       double w = a[t];
@@ -129,7 +180,7 @@ class BandedLdlt final : public Factorization {
       a[t] = lrs;
       d -= w * lrs;
     }
-    return accept_pivot(r, a + KD, d, diagonal, min_pivot_ratio);
+    return log.accept(r, a + KD, d, diagonal, min_pivot_ratio);
   }
   template <int KD, int LO>
   void forward_interior_row(int r, double* y) {
@@ -149,25 +200,10 @@ class BandedLdlt final : public Factorization {
   /// After eliminate_row for every row (or the first failing one): the status and message
   /// factorize() would give, and min_pivot_ratio()/min_pivot_row() set.
   FactorStatus finish_rows(double min_pivot_ratio);
+  /// Takes a thread's PivotLog into the factorisation's (before finish_rows()).
+  void merge_pivots(const PivotLog& log) { log_.merge(log); }
 
  private:
-  // The pivot test of row r: the ratio d / diagonal is tested by products (a division is on
-  // no critical path but the reciprocal's) and divided out only at a new minimum. On success
-  // the band's diagonal gets 1 / d.
-  bool accept_pivot(int r, double* slot, double d, double diagonal, double min_pivot_ratio) {
-    if (!(diagonal > 0.0 && diagonal < kHuge && d >= min_pivot_ratio * diagonal && d > 0.0)) {
-      bad_row_ = r;
-      bad_pivot_ = d;
-      bad_diagonal_ = diagonal;
-      return false;
-    }
-    *slot = 1.0 / d;
-    if (d < row_min_ratio_ * diagonal) {
-      row_min_ratio_ = d / diagonal;
-      row_min_row_ = r;
-    }
-    return true;
-  }
   template <int KD>
   void solve_fixed(double* x);
   FactorStatus no_pattern();
@@ -177,9 +213,7 @@ class BandedLdlt final : public Factorization {
   std::vector<int> position_;  // slot of C's pattern -> index in band_
   std::vector<int> outside_;   // band entries outside the pattern (zeroed before each factorisation)
   std::vector<double> work_;   // kd entries: row r times D, the elimination's running row
-  static constexpr double kHuge = 1.7976931348623157e308;  // largest finite double
-  double row_min_ratio_ = 0.0, bad_pivot_ = 0.0, bad_diagonal_ = 0.0;
-  int row_min_row_ = -1, bad_row_ = -1;  // bad_row_: the row whose pivot test failed
+  PivotLog log_;  // the row-by-row factorisation's pivot tests (begin_rows() clears it)
 };
 
 }  // namespace nonholo::sparse

@@ -1,0 +1,523 @@
+// The common chain's one-form step on several threads (chain_partitions.hpp): each thread's
+// forward sweep over its partition (the one-thread sweep's work, plus the border), the
+// separators' 2x2 block-tridiagonal system on one thread, each thread's back substitution and
+// its bodies' p~ and force; and the solve with the factorisation this leaves.
+#include "step/chain/chain_partitions.hpp"
+
+#include <omp.h>
+
+#include <cmath>
+#include <exception>
+
+#include "step/chain/chain_sweep.hpp"
+
+namespace nonholo::detail {
+
+namespace {
+
+constexpr int KD = kChainBandwidth;
+
+// A partition with a border (every one but the first) costs about 1.5 times a plain one per
+// body (measured in the lab prototype, ../shared/lab/chain_threads: 1.55 on a 2-core AMD EPYC).
+constexpr double kPlainWeight = 1.5;
+
+}  // namespace
+
+ChainPartitions::ChainPartitions(int bodies, int count, int thrusts) : parts(count) {
+  first.assign(parts + 1, 0);
+  double total = kPlainWeight + (parts - 1), acc = 0.0;
+  for (int j = 1; j < parts; ++j) {
+    acc += j == 1 ? kPlainWeight : 1.0;
+    first[j] = static_cast<int>(std::lround(bodies * acc / total));
+  }
+  first[parts] = bodies;
+  for (int j = 1; j < parts; ++j)  // at least 2 bodies each (bodies >= 2 parts)
+    first[j] = std::max(first[j], first[j - 1] + 2);
+  for (int j = parts - 1; j >= 1; --j) first[j] = std::min(first[j], first[j + 1] - 2);
+  border.assign(2 * static_cast<std::size_t>(std::max(3 * bodies - 2, 0)), 0.0);
+  part.assign(parts, Part{});
+  thrust_values.assign(2 * static_cast<std::size_t>(thrusts), 0.0);
+  block.assign(std::max(parts - 1, 0), Block{});
+}
+
+namespace {
+
+// The closed forms of sweep_hitched (chain_sweep.cpp): the knife row of body b, and the hitch
+// rows b -> b+1 (`next` null: only the entries on body b's rows, as a separator's own rows
+// see them from its partition).
+inline void knife_band_row(const ChainBody& cb, double s, double c, double fp, double* row) {
+  const double wx = cb.wx, wy = cb.wy, wt = cb.wt, a = cb.a;
+  row[0] = row[1] = 0.0;
+  row[2] = -wx * s + wt * a * fp * s;
+  row[3] = wy * c - wt * a * fp * c;
+  row[4] = wx * s * s + wy * c * c + wt * a * a;
+}
+inline void hitch_band_rows(const ChainBody& cb, const ChainBody* next, double s, double c, double sn, double cn,
+                            double fp, double* rx, double* ry) {
+  const double wx = cb.wx, wy = cb.wy, wt = cb.wt, a = cb.a, d = cb.d, f = cb.f;
+  const double wtd = wt * d;
+  rx[0] = 0.0;
+  rx[1] = -wx + wtd * fp * s * s;
+  rx[2] = -wtd * fp * s * c;
+  rx[3] = wx * s + wtd * a * s;
+  ry[0] = -wtd * fp * s * c;
+  ry[1] = -wy + wtd * fp * c * c;
+  ry[2] = -wy * c - wtd * a * c;
+  if (next) {
+    const double wtnf = next->wt * f;
+    rx[4] = wx + wtd * d * s * s + next->wx + wtnf * f * sn * sn;
+    ry[3] = -wtd * d * s * c - wtnf * f * sn * cn;
+    ry[4] = wy + wtd * d * c * c + next->wy + wtnf * f * cn * cn;
+  } else {
+    rx[4] = ry[3] = ry[4] = 0.0;
+  }
+}
+// The hitch b -> b+1's right-hand side -(2/h) mu v^ (v: body b, vn: body b+1).
+inline void hitch_rhs(const ChainBody& cb, const double* sc, const double* v, const double* vn, double scale,
+                      double* out) {
+  const double s = sc[0], c = sc[1], sn = sc[2], cn = sc[3];
+  out[0] = scale * (v[0] + cb.d * s * v[2] - vn[0] + cb.f * sn * vn[2]);
+  out[1] = scale * (v[1] - cb.d * c * v[2] - vn[1] - cb.f * cn * vn[2]);
+}
+inline void hitch_gap(const ChainBody& cb, const double* qb, const double* sc, double& gap) {
+  gap = std::max(gap, std::abs(qb[0] - cb.d * sc[1] - qb[3] - cb.f * sc[3]));
+  gap = std::max(gap, std::abs(qb[1] - cb.d * sc[0] - qb[4] - cb.f * sc[2]));
+}
+inline void hitch_residual(const ChainBody& cb, const double* sc, const double* v, const double* vn,
+                           double& residual) {
+  residual = std::max(residual, std::abs(v[0] + cb.d * sc[0] * v[2] - vn[0] + cb.f * sc[2] * vn[2]));
+  residual = std::max(residual, std::abs(v[1] - cb.d * sc[1] * v[2] - vn[1] - cb.f * sc[3] * vn[2]));
+}
+
+// Back substitution of body b's rows (its hitch rows unless they are the separator, whose
+// multipliers are known), the border's term taken off each (`unborder`); rows after body b+1's
+// are read only away from the chain's end, so a partition reads no other partition's rows.
+template <class Unborder>
+inline void back_substitute_body(sparse::BandedLdlt& band, int b, int n_bodies, bool separator, double* x,
+                                 const Unborder& unborder) {
+  const int r = 3 * b;
+  if (!separator && b + 1 < n_bodies) {
+    if (b + 3 < n_bodies) {
+      band.backward_interior_row<KD, 3>(r + 2, x);
+      unborder(r + 2);
+      band.backward_interior_row<KD, 4>(r + 1, x);
+    } else {
+      band.backward_row<KD>(r + 2, x);
+      unborder(r + 2);
+      band.backward_row<KD>(r + 1, x);
+    }
+    unborder(r + 1);
+  }
+  if (b + 3 < n_bodies || separator)
+    band.backward_interior_row<KD, 2>(r, x);
+  else
+    band.backward_row<KD>(r, x);
+  unborder(r);
+}
+
+// One partition's share of the step. First: partition 0, without a border (fixed at compile
+// time: the border's dead code in the plain partition's loop cost it about 30 % in the lab).
+template <bool First>
+struct PartSweep {
+  static constexpr bool first = First;
+  const Model& model;
+  Workspace& ws;
+  ChainPartitions& cp;
+  sparse::BandedLdlt& band;
+  const ChainBodies body;
+  const int n_bodies, j, b0, b1;
+  const bool last;  // no right separator
+  const double h, min_pivot_ratio;
+  double* lb;
+  ChainPartitions::Part& out;
+
+  PartSweep(const Model& m, Workspace& w, int index, double step, double ratio)
+      : model(m), ws(w), cp(*w.partitions()), band(*w.banded()), body(m.element_set()->chain_bodies()),
+        n_bodies(body.size()), j(index), b0(cp.first[index]), b1(cp.first[index + 1]),
+        last(index + 1 == cp.parts), h(step), min_pivot_ratio(ratio), lb(cp.border.data()), out(cp.part[index]) {}
+
+  // Row r's border entries (the left separator's x and y rows against r) once r is eliminated:
+  // C(s, r) (cx, cy) less the earlier border entries times L(r, c) D(c) (work[t], c = r - 4 + t).
+  template <int LO>
+  void border(int r, double cx, double cy, const double (&work)[KD]) {
+    double wx = cx, wy = cy;
+    for (int t = LO; t < KD; ++t) {
+      const double* l = lb + 2 * static_cast<std::ptrdiff_t>(r - KD + t);
+      wx -= l[0] * work[t];
+      wy -= l[1] * work[t];
+    }
+    const double inverse = band.row(r)[KD];
+    const double lx = wx * inverse, ly = wy * inverse;
+    lb[2 * static_cast<std::ptrdiff_t>(r)] = lx;
+    lb[2 * static_cast<std::ptrdiff_t>(r) + 1] = ly;
+    out.left_schur[0] += wx * lx, out.left_schur[1] += wx * ly, out.left_schur[2] += wy * ly;
+  }
+  // Row r eliminated with its columns before LO zero (a partition's first rows: LO counts the
+  // left separator's columns too), and its border when there is one.
+  template <int LO>
+  bool eliminate(int r, double cx = 0.0, double cy = 0.0) {
+    double work[KD];
+    if (!band.eliminate_interior_row<KD, LO>(r, min_pivot_ratio, out.pivots, work)) return false;
+    if (!first) border<LO>(r, cx, cy, work);
+    return true;
+  }
+  // The same for the chain's first rows (partition 0: the band's own bounds).
+  bool eliminate_head(int r) { return band.eliminate_row<KD>(r, min_pivot_ratio, out.pivots); }
+
+  // The right separator's rows (hitch b -> b+1, b = b1 - 1) against this partition's last
+  // three rows r-2, r-1, r (r = 3b): their L in the separator's band rows, their Schur block in
+  // right_schur, and with the left border the block between the two separators in cross.
+  void separator_rows(int r, double* rx, double* ry) {
+    double wx[3], wy[3], lx[3], ly[3];
+    for (int t = 0; t < 3; ++t) {
+      const double* l = band.row(r - 2 + t);
+      double ax = rx[t + 1], ay = ry[t];
+      for (int u = 0; u < t; ++u) {
+        ax -= wx[u] * l[KD - (t - u)];
+        ay -= wy[u] * l[KD - (t - u)];
+      }
+      wx[t] = ax, wy[t] = ay;
+      lx[t] = ax * l[KD], ly[t] = ay * l[KD];
+      rx[t + 1] = lx[t], ry[t] = ly[t];
+    }
+    double* T = out.right_schur;
+    T[0] = T[1] = T[2] = 0.0;
+    double X[2][2] = {{0.0, 0.0}, {0.0, 0.0}};
+    for (int t = 0; t < 3; ++t) {
+      T[0] += wx[t] * lx[t], T[1] += wx[t] * ly[t], T[2] += wy[t] * ly[t];
+      if (!first) {
+        const double* l = lb + 2 * static_cast<std::ptrdiff_t>(r - 2 + t);
+        X[0][0] += l[0] * wx[t], X[0][1] += l[0] * wy[t], X[1][0] += l[1] * wx[t], X[1][1] += l[1] * wy[t];
+      }
+    }
+    for (int a = 0; a < 2; ++a)
+      for (int e = 0; e < 2; ++e) out.cross[a][e] = X[a][e];
+  }
+
+  // The forward sweep over [b0, b1): sweep_hitched's, with the left separator's columns moved
+  // to the border and the right separator's rows reduced to their Schur block.
+  bool forward(const State& st, double t_next) {
+    Forward fw(model, ws, st, h, t_next, false);
+    fw.restrict_to(b0, b1);
+    fw.thrust_values = cp.thrust_values.data();
+    double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *lam = fw.lam, *sc = fw.sc;
+    const double half = 0.5 * h, rhs_scale = -2.0 / h;
+    const bool forced = fw.forced;
+    double vhat[2][3] = {};
+    double gap = 0.0, border_y[2] = {0.0, 0.0};
+    const PartRows rows(band, cp, j, n_bodies);
+    for (int i = b0; i <= b1 + 1; ++i) {
+      if (i < b1) fw.enter(i, true);  // body i enters
+      if (i > b0 && i <= b1) {  // body b = i-1 complete: p^, v^, its rows eliminated
+        const int b = i - 1;
+        const ChainBody& cb = body[b];
+        double* v = vhat[b & 1];
+        for (int c = 0; c < 3; ++c) {
+          const double pc = forced ? ph[3 * b + c] + half * fa[3 * b + c] : ph[3 * b + c];
+          pn[3 * b + c] = pc;
+          v[c] = (&cb.wx)[c] * pc;
+        }
+        const double s = sc[2 * b], c = sc[2 * b + 1];
+        const double fp = b > 0 ? body[b - 1].f : 0.0;
+        const int r = 3 * b;
+        const bool start = b == b0;  // its rows meet the left separator's
+        double* rk = band.row(r);
+        knife_band_row(cb, s, c, fp, rk);
+        bool ok;
+        if (first) {
+          ok = b >= 2 ? eliminate<2>(r) : eliminate_head(r);
+        } else if (start) {
+          const double cx = rk[2], cy = rk[3];
+          rk[2] = rk[3] = 0.0;
+          ok = eliminate<KD>(r, cx, cy);
+        } else {
+          ok = eliminate<2>(r);
+        }
+        if (!ok) return false;
+        if (b + 1 < n_bodies) {
+          double* rx = band.row(r + 1);
+          double* ry = band.row(r + 2);
+          if (b == b1 - 1 && !last) {
+            hitch_band_rows(cb, nullptr, s, c, 0.0, 0.0, fp, rx, ry);
+            separator_rows(r, rx, ry);
+          } else {
+            hitch_band_rows(cb, &body[b + 1], s, c, sc[2 * b + 2], sc[2 * b + 3], fp, rx, ry);
+            hitch_gap(cb, qn + 3 * b, sc + 2 * b, gap);
+            if (first) {
+              ok = b >= 2 ? eliminate<1>(r + 1) && eliminate<0>(r + 2)
+                          : eliminate_head(r + 1) && eliminate_head(r + 2);
+            } else if (start) {
+              const double cx1 = rx[1], cy1 = rx[2], cx2 = ry[0], cy2 = ry[1];
+              rx[1] = rx[2] = ry[0] = ry[1] = 0.0;
+              ok = eliminate<3>(r + 1, cx1, cy1) && eliminate<2>(r + 2, cx2, cy2);
+            } else {
+              ok = eliminate<1>(r + 1) && eliminate<0>(r + 2);
+            }
+            if (!ok) return false;
+          }
+        }
+      }
+      if (i >= b0 + 2) {  // group g = i-2: right-hand side and forward substitution
+        const int g = i - 2;
+        const ChainBody& cb = body[g];
+        const double* v = vhat[g & 1];
+        const double s = sc[2 * g], c = sc[2 * g + 1];
+        const int r = 3 * g;
+        lam[r] = rhs_scale * (s * v[0] - c * v[1] + cb.a * v[2]);
+        if (rows.hitch_rows(g)) hitch_rhs(cb, sc + 2 * g, v, vhat[(g + 1) & 1], rhs_scale, lam + r + 1);
+        rows.template forward<First>(g, lam, border_y, out.right_y);
+      }
+    }
+    out.left_y[0] = border_y[0], out.left_y[1] = border_y[1];
+    out.kinetic_post = fw.kinetic_post;
+    out.potential_old = fw.potential_old, out.potential_new = fw.potential_new;
+    out.check = fw.check;
+    out.gap = gap;
+    return true;
+  }
+
+  // Back substitution over [b0, b1) (the separators' multipliers known), each body finished:
+  // p~ = p^ + (h/2) mu^T lambda~, force, its energy and its rows' residuals.
+  void backward() {
+    const double half = 0.5 * h;
+    const bool forced = model.has_applied_force();
+    const double* sc = ws.chain_sincos.data();
+    const double* fa = ws.applied.data();
+    double *pn = ws.p_next.data(), *fn = ws.force_next.data(), *lam = ws.lambda.data();
+    const double* xs = first ? nullptr : lam + 3 * b0 - 2;  // the left separator's multipliers
+    BlockSum kinetic;
+    double residual = 0.0, check = 0.0, vlater[3] = {0.0, 0.0, 0.0};
+    const double* forces = forced ? fa : nullptr;
+    auto finish_body = [&](int b) {
+      double v[3];
+      residual = std::max(residual, finish_hitched_body(body, b, sc, lam, half, forces, pn, fn, kinetic, check, v));
+      const ChainBody& cb = body[b];
+      if (b + 1 < b1) hitch_residual(cb, sc + 2 * b, v, vlater, residual);  // a separator's: after the join
+      vlater[0] = v[0], vlater[1] = v[1], vlater[2] = v[2];
+    };
+    auto unborder = [&](int r) {
+      if (!first) lam[r] -= lb[2 * static_cast<std::ptrdiff_t>(r)] * xs[0] + lb[2 * static_cast<std::ptrdiff_t>(r) + 1] * xs[1];
+    };
+    for (int b = b1 - 1; b >= b0; --b) {
+      back_substitute_body(band, b, n_bodies, b == b1 - 1 && !last, lam, unborder);
+      if (b + 1 < b1) finish_body(b + 1);
+    }
+    finish_body(b0);
+    out.kinetic = kinetic;
+    out.residual = residual;
+    out.check += check;
+  }
+};
+
+// The separators' system on one thread: block j is C's 2x2 block of s_j less the Schur
+// complements of the partitions on both sides, coupled to s_{j+1} through partition j+1's
+// cross block; block LDL^T, each 2x2 pivot tested as the band's rows are (rows 3b+1, 3b+2).
+// The multipliers go to lambda (`rhs`: from the sweeps' partial sums; the solve's own).
+bool factor_separators(const Model& model, Workspace& ws, double min_pivot_ratio, sparse::PivotLog& log) {
+  ChainPartitions& cp = *ws.partitions();
+  const ChainBodies body = model.element_set()->chain_bodies();
+  const double* sc = ws.chain_sincos.data();
+  for (int j = 0; j + 1 < cp.parts; ++j) {
+    const int b = cp.first[j + 1] - 1;
+    const ChainBody& cb = body[b];
+    const double fp = b > 0 ? body[b - 1].f : 0.0;
+    double rx[5], ry[5];
+    hitch_band_rows(cb, &body[b + 1], sc[2 * b], sc[2 * b + 1], sc[2 * b + 2], sc[2 * b + 3], fp, rx, ry);
+    const ChainPartitions::Part &left = cp.part[j], &right = cp.part[j + 1];
+    double D[3] = {rx[4] - left.right_schur[0] - right.left_schur[0], ry[3] - left.right_schur[1] - right.left_schur[1],
+                   ry[4] - left.right_schur[2] - right.left_schur[2]};
+    ChainPartitions::Block& k = cp.block[j];
+    for (int a = 0; a < 2; ++a)
+      for (int e = 0; e < 2; ++e) k.up[a][e] = -right.cross[a][e];
+    if (j > 0) {  // D -= U_{j-1}^T D'_{j-1}^-1 U_{j-1}
+      const ChainPartitions::Block& pk = cp.block[j - 1];
+      const double* iv = pk.inverse;
+      double M[2][2];  // D'^-1 U
+      for (int e = 0; e < 2; ++e) {
+        M[0][e] = iv[0] * pk.up[0][e] + iv[1] * pk.up[1][e];
+        M[1][e] = iv[1] * pk.up[0][e] + iv[2] * pk.up[1][e];
+      }
+      D[0] -= pk.up[0][0] * M[0][0] + pk.up[1][0] * M[1][0];
+      D[1] -= pk.up[0][0] * M[0][1] + pk.up[1][0] * M[1][1];
+      D[2] -= pk.up[0][1] * M[0][1] + pk.up[1][1] * M[1][1];
+    }
+    // D = [1 0; l 1] diag(d0, d1) [1 l; 0 1]
+    double inv0 = 0.0, inv1 = 0.0;
+    if (!log.accept(3 * b + 1, &inv0, D[0], rx[4], min_pivot_ratio)) return false;
+    const double l = D[1] * inv0;
+    if (!log.accept(3 * b + 2, &inv1, D[2] - l * D[1], ry[4], min_pivot_ratio)) return false;
+    k.inverse[0] = inv0 + l * l * inv1;
+    k.inverse[1] = -l * inv1;
+    k.inverse[2] = inv1;
+  }
+  return true;
+}
+
+// The separators' multipliers from their reduced right-hand sides (block.rhs) into x.
+void solve_separators(ChainPartitions& cp, double* x) {
+  const int count = cp.parts - 1;
+  for (int j = 1; j < count; ++j) {  // r'_j = r_j - U_{j-1}^T D'_{j-1}^-1 r'_{j-1}
+    const ChainPartitions::Block& pk = cp.block[j - 1];
+    const double* iv = pk.inverse;
+    const double z0 = iv[0] * pk.rhs[0] + iv[1] * pk.rhs[1], z1 = iv[1] * pk.rhs[0] + iv[2] * pk.rhs[1];
+    cp.block[j].rhs[0] -= pk.up[0][0] * z0 + pk.up[1][0] * z1;
+    cp.block[j].rhs[1] -= pk.up[0][1] * z0 + pk.up[1][1] * z1;
+  }
+  double next[2] = {0.0, 0.0};
+  for (int j = count - 1; j >= 0; --j) {
+    const ChainPartitions::Block& k = cp.block[j];
+    double t0 = k.rhs[0], t1 = k.rhs[1];
+    if (j + 1 < count) {
+      t0 -= k.up[0][0] * next[0] + k.up[0][1] * next[1];
+      t1 -= k.up[1][0] * next[0] + k.up[1][1] * next[1];
+    }
+    next[0] = k.inverse[0] * t0 + k.inverse[1] * t1;
+    next[1] = k.inverse[1] * t0 + k.inverse[2] * t1;
+    const int r = 3 * (cp.first[j + 1] - 1) + 1;
+    x[r] = next[0], x[r + 1] = next[1];
+  }
+}
+
+// The step's separators: their right-hand sides from the velocities of both sides, the
+// system factorised and solved; their gaps.
+bool reduce(const Model& model, Workspace& ws, double h, double min_pivot_ratio, sparse::PivotLog& log,
+            double& gap) {
+  ChainPartitions& cp = *ws.partitions();
+  if (!factor_separators(model, ws, min_pivot_ratio, log)) return false;
+  const ChainBodies body = model.element_set()->chain_bodies();
+  const double *sc = ws.chain_sincos.data(), *pn = ws.p_next.data(), *qn = ws.q_next.data();
+  for (int j = 0; j + 1 < cp.parts; ++j) {
+    const int b = cp.first[j + 1] - 1;
+    const ChainBody &cb = body[b], &nb = body[b + 1];
+    double v[3], vn[3], rhs[2];
+    for (int k = 0; k < 3; ++k) v[k] = (&cb.wx)[k] * pn[3 * b + k], vn[k] = (&nb.wx)[k] * pn[3 * b + 3 + k];
+    hitch_rhs(cb, sc + 2 * b, v, vn, -2.0 / h, rhs);
+    hitch_gap(cb, qn + 3 * b, sc + 2 * b, gap);
+    for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = rhs[a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
+  }
+  solve_separators(cp, ws.lambda.data());
+  return true;
+}
+
+}  // namespace
+
+Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
+                            double t_next, double& check) {
+  ChainPartitions& cp = *ws.partitions();
+  sparse::BandedLdlt& band = *ws.banded();
+  start_sweep(ws);
+  for (auto& part : cp.part) part = ChainPartitions::Part{};
+  // The thrusts on this thread (their callbacks may throw: the caller's guard catches it here).
+  const auto& thrusts = model.element_set()->thrusts;
+  for (std::size_t k = 0; k < thrusts.size(); ++k) {
+    cp.thrust_values[2 * k] = thrusts[k].force ? thrusts[k].force(t_next) : 0.0;
+    cp.thrust_values[2 * k + 1] = thrusts[k].torque ? thrusts[k].torque(t_next) : 0.0;
+  }
+  const int parts = cp.parts;
+  sparse::PivotLog separators;
+  double separator_gap = 0.0;
+  bool forward_ok = true, reduced_ok = true;
+  std::exception_ptr thrown;  // a thrust callback's, the first partition's that threw
+  int thrown_at = parts;
+#pragma omp parallel num_threads(parts)
+  {
+    // MXCSR is per thread and pooled workers do not inherit it: flush subnormals in each.
+    const FlushSubnormals flush;
+    const int team = omp_get_num_threads();  // fewer when nested or limited: partitions in turn
+    bool ok = true;
+    for (int j = omp_get_thread_num(); j < parts; j += team) {
+      try {
+        ok = (j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next)
+                     : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next)) &&
+             ok;
+      } catch (...) {
+#pragma omp critical(nonholo_parted_throw)
+        if (j < thrown_at) thrown_at = j, thrown = std::current_exception();
+        ok = false;
+      }
+    }
+    if (!ok) {
+#pragma omp atomic write
+      forward_ok = false;
+    }
+#pragma omp barrier
+#pragma omp single
+    {
+      if (forward_ok) reduced_ok = reduce(model, ws, h, o.min_pivot_ratio, separators, separator_gap);
+    }
+    if (forward_ok && reduced_ok)
+      for (int j = omp_get_thread_num(); j < parts; j += team)
+        j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).backward()
+               : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).backward();
+  }
+  if (thrown) std::rethrow_exception(thrown);
+  // The partitions' pivot tests in row order, then the separators'.
+  for (const auto& part : cp.part) band.merge_pivots(part.pivots);
+  band.merge_pivots(separators);
+  if (!forward_ok || !reduced_ok) return pivot_failure(ws, band, o.min_pivot_ratio);
+  band.finish_rows(o.min_pivot_ratio);
+
+  // The sums in partition order (bitwise the same for the same partitions); the separators'
+  // hitch residuals, whose bodies two partitions finished.
+  const ChainBodies body = model.element_set()->chain_bodies();
+  const double *sc = ws.chain_sincos.data(), *pn = ws.p_next.data();
+  double kinetic = 0.0, kinetic_post = 0.0, potential_old = 0.0, potential_new = 0.0, residual = 0.0;
+  double gap = separator_gap;
+  for (const auto& part : cp.part) {
+    kinetic += part.kinetic.value();
+    kinetic_post += part.kinetic_post.value();
+    potential_old += part.potential_old;
+    potential_new += part.potential_new;
+    residual = std::max(residual, part.residual);
+    gap = std::max(gap, part.gap);
+    check += part.check;
+  }
+  for (int j = 0; j + 1 < parts; ++j) {
+    const int b = cp.first[j + 1] - 1;
+    const ChainBody &cb = body[b], &nb = body[b + 1];
+    double v[3], vn[3];
+    for (int k = 0; k < 3; ++k) v[k] = (&cb.wx)[k] * pn[3 * b + k], vn[k] = (&nb.wx)[k] * pn[3 * b + 3 + k];
+    hitch_residual(cb, sc + 2 * b, v, vn, residual);
+  }
+  ws.one_forms_factorized_at_key(false, true);
+  auto& d = ws.step_diagnostics;
+  d.energy = 0.5 * kinetic + potential_new;
+  d.energy_post = 0.5 * kinetic_post + 0.5 * (potential_old + potential_new);
+  d.residual = residual;
+  d.gap = gap;
+  return Status::Ok;
+}
+
+void solve_parted(const Model& model, Workspace& ws, const double* b, double* x) {
+  ChainPartitions& cp = *ws.partitions();
+  sparse::BandedLdlt& band = *ws.banded();
+  const int n_bodies = model.num_bodies(), m = model.num_one_forms();
+  if (x != b)
+    for (int r = 0; r < m; ++r) x[r] = b[r];
+  const double* lb = cp.border.data();
+  // Forward: each partition's rows (as the sweep orders them), its partial sums for the
+  // separators; then the separators.
+  for (int j = 0; j < cp.parts; ++j) {
+    const PartRows rows(band, cp, j, n_bodies);
+    double* left = cp.part[j].left_y;
+    left[0] = left[1] = 0.0;
+    for (int g = rows.b0; g < rows.b1; ++g) rows.forward(g, x, left, cp.part[j].right_y);
+  }
+  for (int j = 0; j + 1 < cp.parts; ++j) {
+    const int r = 3 * (cp.first[j + 1] - 1) + 1;
+    for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = x[r + a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
+  }
+  solve_separators(cp, x);
+  // Backward, partition by partition (the separators' x known).
+  for (int j = 0; j < cp.parts; ++j) {
+    const int b0 = cp.first[j], b1 = cp.first[j + 1];
+    const bool first = j == 0, last = j + 1 == cp.parts;
+    const double* xs = first ? nullptr : x + 3 * b0 - 2;
+    auto unborder = [&](int r) {
+      if (!first) x[r] -= lb[2 * static_cast<std::ptrdiff_t>(r)] * xs[0] + lb[2 * static_cast<std::ptrdiff_t>(r) + 1] * xs[1];
+    };
+    for (int g = b1 - 1; g >= b0; --g) back_substitute_body(band, g, n_bodies, g == b1 - 1 && !last, x, unborder);
+  }
+}
+
+}  // namespace nonholo::detail

@@ -1,0 +1,134 @@
+#pragma once
+// The common chain (ElementSet::hitched_chain) split over threads (chain_partitions.cpp,
+// docs/design.md "One chain on several threads"): partition j owns the bodies
+// [first[j], first[j+1]); the hitch of its last body, whose two rows alone couple it to the
+// next partition, is the separator s_j. Each thread factorises its partition's other rows in
+// the band (natural order, as on one thread); the rows of the partition's left separator are
+// carried as a border (their L against each of its rows, 2 per row); the separators' Schur
+// complement, block tridiagonal with 2x2 blocks, is factorised by one thread.
+#include <nonholo/rattle.hpp>
+
+#include <vector>
+
+#include <nonholo/sparse/banded_ldlt.hpp>
+
+#include "step/chain/sweep_common.hpp"
+
+namespace nonholo::detail {
+
+// The common chain's band: rows 3b (knife edge), 3b+1, 3b+2 (hitch b -> b+1), half-bandwidth 4.
+inline constexpr int kChainBandwidth = 4;
+
+struct ChainPartitions {
+  // `parts` partitions of at least 2 bodies each (callers check: WorkspaceOptions::threads),
+  // for a chain with `thrusts` thrusts.
+  ChainPartitions(int bodies, int parts, int thrusts);
+
+  int parts;
+  std::vector<int> first;       // parts + 1 body boundaries
+  std::vector<double> border;   // L(s, r) for the left separator s of r's partition (x, y; 2 per row)
+  std::vector<double> thrust_values;  // Forward::thrust_values: each thrust's force and torque at t_{k+1}
+
+  // What partition j hands to the separators' system and to the step's sums, one cache line
+  // apart (threads write them).
+  struct alignas(64) Part {
+    double right_schur[3] = {};  // its rows' Schur complement on the right separator (xx, xy, yy)
+    double right_y[2] = {};      // sum_c L(s, c) y_c over its rows c, for the right separator
+    double left_schur[3] = {};   // the same for the left separator (its border)
+    double left_y[2] = {};
+    double cross[2][2] = {};     // -(the Schur block between its left and right separators)
+    sparse::PivotLog pivots;
+    BlockSum kinetic, kinetic_post;
+    double potential_old = 0.0, potential_new = 0.0, check = 0.0, residual = 0.0, gap = 0.0;
+    // The mode's measurement (chain_partitions_measure.cpp): |y|^2_D over its rows, |p_-|^2 and
+    // the kicks in M^-1 over its bodies, and the right separator's rows of r.
+    double mode = 0.0, arriving = 0.0, kicks = 0.0, right_r[2] = {};
+  };
+  std::vector<Part> part;
+
+  // The separators' block LDL^T: D'_j^-1 (xx, xy, yy) and the coupling U_j to s_{j+1}.
+  struct Block {
+    double inverse[3] = {};
+    double up[2][2] = {};
+    double rhs[2] = {};  // the reduced right-hand side during a solve
+  };
+  std::vector<Block> block;
+};
+
+// Partition [b0, b1)'s rows in the band as the partitioned factorisation orders them: the
+// forward substitution of body g's rows (its knife edge's; its hitch's, unless that is the
+// right separator, whose partial sum goes to `right`), the border's sums into `left`.
+struct PartRows {
+  sparse::BandedLdlt& band;
+  const double* lb;
+  int n_bodies, b0, b1;
+  bool first, last;
+
+  PartRows(sparse::BandedLdlt& b, const ChainPartitions& cp, int j, int bodies)
+      : band(b), lb(cp.border.data()), n_bodies(bodies), b0(cp.first[j]), b1(cp.first[j + 1]), first(j == 0),
+        last(j + 1 == cp.parts) {}
+
+  bool separator(int g) const { return g == b1 - 1 && !last; }
+  // Whether body g has hitch rows of this partition's own.
+  bool hitch_rows(int g) const { return g + 1 < n_bodies && !separator(g); }
+
+  void forward(int g, double* y, double* left, double* right) const {
+    first ? forward<true>(g, y, left, right) : forward<false>(g, y, left, right);
+  }
+  // First: partition 0's (no border), fixed at compile time in the sweeps' loops.
+  template <bool First>
+  void forward(int g, double* y, double* left, double* right) const {
+    constexpr int KD = kChainBandwidth;
+    sparse::BandedLdlt& bd = band;
+    const int r = 3 * g;
+    const bool start = g == b0;
+    if (First)
+      g >= 2 ? bd.forward_interior_row<KD, 2>(r, y) : bd.forward_row<KD>(r, y);
+    else if (!start)
+      bd.forward_interior_row<KD, 2>(r, y);
+    sum<First>(r, y, left);
+    if (g + 1 >= n_bodies) return;
+    if (separator(g)) {
+      const double* rx = bd.row(r + 1);
+      const double* ry = bd.row(r + 2);
+      right[0] = rx[1] * y[r - 2] + rx[2] * y[r - 1] + rx[3] * y[r];
+      right[1] = ry[0] * y[r - 2] + ry[1] * y[r - 1] + ry[2] * y[r];
+      return;
+    }
+    if (First && g < 2) {
+      bd.forward_row<KD>(r + 1, y);
+      bd.forward_row<KD>(r + 2, y);
+    } else if (start && !First) {
+      bd.forward_interior_row<KD, 3>(r + 1, y);
+      bd.forward_interior_row<KD, 2>(r + 2, y);
+    } else {
+      bd.forward_interior_row<KD, 1>(r + 1, y);
+      bd.forward_interior_row<KD, 0>(r + 2, y);
+    }
+    sum<First>(r + 1, y, left);
+    sum<First>(r + 2, y, left);
+  }
+  template <bool First>
+  void sum(int r, const double* y, double* left) const {
+    if (First) return;
+    left[0] += lb[2 * static_cast<std::ptrdiff_t>(r)] * y[r];
+    left[1] += lb[2 * static_cast<std::ptrdiff_t>(r) + 1] * y[r];
+  }
+};
+
+// The one-form step of the common chain (chain_sweep.cpp's sweep_hitched, not kicked) on
+// ws.partitions()'s threads; the factorisation it leaves is partitioned (Workspace::solve
+// solves with it). Bitwise the same for the same partitions, whatever threads run them.
+Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
+                            double t_next, double& check);
+
+// x = C^-1 b with the factorisation a partitioned step left (x may be b).
+void solve_parted(const Model& model, Workspace& ws, const double* b, double* x);
+
+// chain_measure (chain_sweep.hpp) after a partitioned step, on its threads and with its
+// factorisation (chain_partitions_measure.cpp): |d|_C^2 = r^T C^-1 r from the partitions' forward
+// substitutions and the separators' reduced system.
+Status chain_measure_parted(const Model& model, Workspace& ws, const double* p, const double* lambda, double h,
+                            const State* from, double& amplitude);
+
+}  // namespace nonholo::detail

@@ -1,0 +1,391 @@
+// One chain on several threads (core/src/step/chain/chain_partitions.cpp): the partitioned
+// one-form step against the one-thread step (to round-off, q bit for bit), against the general
+// path through CHOLMOD (independent), bitwise repeatable for a given thread count, with the
+// period-2 mode's measurement and restarts solving with the partitioned factorisation; its
+// edge cases (partitions of two bodies, a failing pivot) and its refusals. No allocation:
+// test_no_allocation.cpp.
+#include <nonholo/diagnostics.hpp>
+#include <nonholo/model_builder.hpp>
+#include <nonholo/rattle.hpp>
+#include <nonholo/start.hpp>
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+#include "support/scenes.hpp"
+
+
+namespace nonholo {
+namespace {
+
+double relative(const Vector& a, const Vector& b) {
+  const double scale = std::max(1.0, b.lpNorm<Eigen::Infinity>());
+  return (a - b).lpNorm<Eigen::Infinity>() / scale;
+}
+
+struct Chain {
+  Model model;
+  Vector q0, v0;
+};
+
+// A chain of n sleighs with random masses, inertias, blades and hitch arms, springs on some
+// joints, on a random hitched configuration, the lead pushed and turning.
+Chain random_chain(int n, unsigned seed, bool springs = true) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  ModelBuilder b;
+  std::vector<double> d(n), f(n);
+  for (int i = 0; i < n; ++i) {
+    const std::string s = std::to_string(i);
+    b.add_planar_body({"x" + s, "y" + s, "t" + s}, 0.5 + u(rng), 0.05 + 0.2 * u(rng));
+  }
+  for (int i = 0; i < n; ++i) {
+    b.add_knife_edge({i, -0.2 + 0.5 * u(rng)});
+    d[i] = 0.3 + 0.4 * u(rng), f[i] = 0.3 + 0.4 * u(rng);
+    if (i + 1 < n) b.add_hitch({i, i + 1, d[i], f[i]});
+    if (springs && i + 1 < n && u(rng) < 0.6) b.add_torsional_spring({i, i + 1, 0.5 + 2.0 * u(rng), 0.1 * u(rng)});
+  }
+  Chain c{b.build(), Vector::Zero(3 * n), Vector::Zero(3 * n)};
+  for (int i = 0; i < n; ++i) {
+    c.q0[3 * i + 2] = 0.4 * (u(rng) - 0.5);
+    if (i > 0) {  // x_i = x_{i-1} - d cos(t_{i-1}) - f cos(t_i)
+      c.q0[3 * i] = c.q0[3 * i - 3] - d[i - 1] * std::cos(c.q0[3 * i - 1]) - f[i - 1] * std::cos(c.q0[3 * i + 2]);
+      c.q0[3 * i + 1] = c.q0[3 * i - 2] - d[i - 1] * std::sin(c.q0[3 * i - 1]) - f[i - 1] * std::sin(c.q0[3 * i + 2]);
+    }
+    c.v0[3 * i] = 1.0, c.v0[3 * i + 2] = 0.5 * (u(rng) - 0.5);
+  }
+  return c;
+}
+
+WorkspaceOptions on_threads(int threads) {
+  WorkspaceOptions o;
+  o.threads = threads;
+  return o;
+}
+
+RattleOptions one_form(double h = 0.01) {
+  RattleOptions o;
+  o.h = h;
+  o.hitch = HitchMode::OneForm;
+  return o;
+}
+
+TEST(ChainThreads, TheWorkspaceSplitsTheCommonChainOnly) {
+  const Chain c = random_chain(12, 1);
+  EXPECT_EQ(Workspace(c.model).threads(), 1);
+  EXPECT_EQ(Workspace(c.model, on_threads(4)).threads(), 4);
+  EXPECT_EQ(Workspace(c.model, on_threads(6)).threads(), 6);  // partitions of 2 bodies
+  try {
+    Workspace ws(c.model, on_threads(7));
+    ADD_FAILURE() << "7 threads for 12 bodies were accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("at most 6 threads"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(Workspace(c.model, on_threads(0)), std::invalid_argument);
+  // Not the common chain (knife edges and springs, no hitches: C diagonal): one thread, said by
+  // threads() and max_step_threads().
+  ModelBuilder b;
+  for (int i = 0; i < 6; ++i)
+    b.add_planar_body({"x" + std::to_string(i), "y" + std::to_string(i), "t" + std::to_string(i)}, 1, 1);
+  for (int i = 0; i < 6; ++i) {
+    b.add_knife_edge({i, 0.1});
+    if (i < 5) b.add_torsional_spring({i, i + 1, 1.0, 0.0});
+  }
+  const Model knives = b.build();
+  ASSERT_TRUE(knives.is_chain());
+  EXPECT_EQ(max_step_threads(knives), 1);
+  EXPECT_EQ(Workspace(knives, on_threads(2)).threads(), 1);
+  EXPECT_EQ(max_step_threads(c.model), 6);
+}
+
+// One step from the same states along a trajectory: q bit for bit (the drift is the same
+// arithmetic), p~, lambda~ and force as close to the one-thread step as a factorisation in
+// another order (CHOLMOD's, natural order) is: the elimination order differs, and on these
+// random chains C's condition makes that 1e-13 at 40 bodies and 7e-12 at 101 (measured).
+TEST(ChainThreads, OneStepAgreesWithOneThread) {
+  for (int n : {14, 40, 101})
+    for (int threads : {2, 3, 4, 7}) {
+      const Chain c = random_chain(n, 10 + n);
+      Workspace one(c.model), many(c.model, on_threads(threads)), general(c.model, {sparse::Backend::CholmodNatural});
+      ASSERT_EQ(many.threads(), threads);
+      const RattleOptions o = one_form();
+      State s = start_from_velocity(c.model, one, 0.0, c.q0, c.v0);
+      double worst = 0.0, other = 0.0;
+      for (int k = 0; k < 60; ++k) {
+        State a = s, b = s, g = s;
+        ASSERT_EQ(step(c.model, one, a, o), Status::Ok) << one.message();
+        ASSERT_EQ(step(c.model, many, b, o), Status::Ok) << many.message();
+        ASSERT_EQ(step(c.model, general, g, o), Status::Ok) << general.message();
+        ASSERT_TRUE(a.q == b.q) << "n " << n << " threads " << threads << " step " << k;
+        worst = std::max({worst, relative(b.p, a.p), relative(b.lambda, a.lambda), relative(b.force, a.force)});
+        other = std::max({other, relative(g.p, a.p), relative(g.lambda, a.lambda), relative(g.force, a.force)});
+        EXPECT_EQ(a.restarts, b.restarts);
+        s = a;
+      }
+      EXPECT_LE(worst, std::max(1e-13, 2.0 * other)) << "n " << n << " threads " << threads << ", CHOLMOD " << other;
+    }
+}
+
+// A generated chain of 10^4 bodies: the solve with the partitioned factorisation is backward
+// stable as the one-thread one is (|b - C x| / (|C| |x|) at round-off, C applied as
+// mu M^-1 mu^T); the two solutions differ by the conditioning of the separators' Schur
+// complement (measured 4e-13 for 2 threads, 1.2e-12 for 7, where CHOLMOD's natural order,
+// the one-thread order, agrees to 2e-16).
+TEST(ChainThreads, AGeneratedChainSolvesBackwardStably) {
+  const auto setup = testing::scene("sleigh_chain", {"bodies=10000", "k=2"});
+  const Model& model = setup.model;
+  const int m = model.num_one_forms(), n = model.num_velocities();
+  const RattleOptions o = one_form();
+  Workspace one(model);
+  State s = start_from_velocity(model, one, 0.0, setup.q0, setup.v0);
+  for (int k = 0; k < 5; ++k) ASSERT_EQ(step(model, one, s, o), Status::Ok);
+  Vector rhs(m), x(m), mu_t(n), scaled(n), cx(m);
+  for (int r = 0; r < m; ++r) rhs[r] = std::cos(1.0 + 0.7 * r);
+  auto backward_error = [&](Workspace& ws, const State& at) {  // C of the q the step arrived at
+    EXPECT_EQ(ws.solve(rhs.data(), x.data()), Status::Ok);
+    EXPECT_EQ(ws.evaluate_one_forms(at.q), Status::Ok);
+    model.mu_transpose_times(ws.mu_values.data(), x.data(), mu_t.data());
+    model.inverse_mass().multiply(mu_t.data(), scaled.data());
+    model.mu_times(ws.mu_values.data(), scaled.data(), cx.data());
+    return (rhs - cx).lpNorm<Eigen::Infinity>() / (rhs.lpNorm<Eigen::Infinity>() + 8.0 * x.lpNorm<Eigen::Infinity>());
+  };
+  State a = s;
+  ASSERT_EQ(step(model, one, a, o), Status::Ok);
+  const double single = backward_error(one, a);
+  for (int threads : {2, 7}) {
+    Workspace many(model, on_threads(threads));
+    State b = s;
+    ASSERT_EQ(step(model, many, b, o), Status::Ok);
+    ASSERT_TRUE(many.factor_parted());
+    const double parted = backward_error(many, b);
+    EXPECT_LE(parted, 4.0 * single) << threads;
+  }
+}
+
+// Against the general path through CHOLMOD (a different factorisation altogether), with
+// restarts every 7 steps: they solve with the partitioned factorisation. As close as the
+// one-thread step is to it.
+TEST(ChainThreads, AgreesWithTheGeneralPathThroughCholmod) {
+  const Chain c = random_chain(30, 3);
+  for (int threads : {2, 5}) {
+    Workspace one(c.model), many(c.model, on_threads(threads)), general(c.model, {sparse::Backend::CholmodNatural});
+    RattleOptions o = one_form();
+    o.restart.mode = RestartMode::Periodic;
+    o.restart.every = 7;
+    State s = start_from_velocity(c.model, general, 0.0, c.q0, c.v0);
+    double worst = 0.0, single = 0.0;
+    for (int k = 0; k < 200; ++k) {
+      State a = s, b = s, g = s;
+      ASSERT_EQ(step(c.model, many, a, o), Status::Ok) << many.message();
+      ASSERT_EQ(step(c.model, general, g, o), Status::Ok) << general.message();
+      ASSERT_EQ(step(c.model, one, b, o), Status::Ok) << one.message();
+      worst = std::max({worst, relative(a.q, g.q), relative(a.p, g.p), relative(a.lambda, g.lambda),
+                        relative(a.force, g.force)});
+      single = std::max({single, relative(b.q, g.q), relative(b.p, g.p), relative(b.lambda, g.lambda),
+                         relative(b.force, g.force)});
+      EXPECT_EQ(a.restarts, g.restarts);
+      s = g;
+    }
+    EXPECT_GT(s.restarts, 20);
+    EXPECT_LE(worst, std::max(1e-13, 2.0 * single)) << threads << ", one thread " << single;
+  }
+}
+
+// The period-2 mode measured at every step from the partitioned factorisation (on the threads,
+// chain_partitions_measure.cpp) is the one-thread measurement's amplitude, to round-off; and
+// a restart at every measurement keeps the two runs together.
+TEST(ChainThreads, MeasuresTheModeAsOneThread) {
+  for (int threads : {2, 3, 6}) {
+    const Chain c = random_chain(13, 20 + threads);
+    Workspace one(c.model), many(c.model, on_threads(threads));
+    RattleOptions o = one_form();
+    o.restart.mode = RestartMode::Never;
+    o.restart.monitor_every = 1;
+    State s = start_from_velocity(c.model, one, 0.0, c.q0, c.v0);
+    s.lambda *= 1.05;  // a mode to measure
+    double worst = 0.0, largest = 0.0;
+    for (int k = 0; k < 40; ++k) {
+      State a = s, b = s;
+      ASSERT_EQ(step(c.model, one, a, o), Status::Ok) << one.message();
+      ASSERT_EQ(step(c.model, many, b, o), Status::Ok) << many.message();
+      ASSERT_TRUE(std::isfinite(one.parasitic) && std::isfinite(many.parasitic));
+      worst = std::max(worst, std::abs(many.parasitic - one.parasitic));
+      largest = std::max(largest, one.parasitic);
+      s = a;
+    }
+    EXPECT_GT(largest, 1e-5) << "the seeded mode is there to measure";
+    EXPECT_LE(worst, 1e-10 * largest + 1e-14) << threads;
+  }
+}
+
+// The solve with the partitioned factorisation is C^-1 (the one-thread factorisation's, to
+// round-off) for any right-hand side.
+TEST(ChainThreads, ItsSolveIsTheBandsSolve) {
+  const Chain c = random_chain(23, 4);
+  const int m = c.model.num_one_forms();
+  Workspace one(c.model), many(c.model, on_threads(4));
+  State s = start_from_velocity(c.model, one, 0.0, c.q0, c.v0);
+  const RattleOptions o = one_form();
+  for (int k = 0; k < 20; ++k) ASSERT_EQ(step(c.model, one, s, o), Status::Ok);
+  State a = s, b = s;
+  ASSERT_EQ(step(c.model, one, a, o), Status::Ok);
+  ASSERT_EQ(step(c.model, many, b, o), Status::Ok);
+  ASSERT_TRUE(many.factor_parted());
+  Vector rhs(m), x1(m), xp(m);
+  for (int r = 0; r < m; ++r) rhs[r] = std::cos(1.0 + 0.7 * r);
+  ASSERT_EQ(one.solve(rhs.data(), x1.data()), Status::Ok);
+  ASSERT_EQ(many.solve(rhs.data(), xp.data()), Status::Ok);
+  EXPECT_LE(relative(xp, x1), 1e-12);
+  xp = rhs;  // in place
+  ASSERT_EQ(many.solve(xp.data(), xp.data()), Status::Ok);
+  EXPECT_LE(relative(xp, x1), 1e-12);
+}
+
+// 1000 steps with the default options (the mode measured and restarted as it asks): the
+// energy, the residual and the gap stay at the one-thread run's round-off, and two runs with
+// the same threads are bit for bit the same (threads racing would show here).
+TEST(ChainThreads, LongRunsKeepTheOneThreadRoundOffAndRepeatBitwise) {
+  const Chain c = random_chain(40, 5);
+  const RattleOptions o = one_form();
+  auto run = [&](int threads, double& drift, double& residual, double& gap) {
+    Workspace ws(c.model, on_threads(threads));
+    State s = start_from_velocity(c.model, ws, 0.0, c.q0, c.v0);
+    const double e0 = diagnose(c.model, ws, s, o.h).energy;
+    drift = residual = gap = 0.0;
+    for (int k = 0; k < 1000; ++k) {
+      EXPECT_EQ(step(c.model, ws, s, o), Status::Ok) << ws.message();
+      const Diagnostics d = diagnose_step(c.model, ws, s, o.h);
+      drift = std::max(drift, std::abs(d.energy - e0) / std::abs(e0));
+      residual = std::max(residual, d.residual);
+      gap = std::max(gap, d.gap);
+    }
+    return s;
+  };
+  double drift1, residual1, gap1;
+  const State one = run(1, drift1, residual1, gap1);
+  for (int threads : {2, 3, 7}) {
+    double drift, residual, gap, drift_b, residual_b, gap_b;
+    const State a = run(threads, drift, residual, gap), b = run(threads, drift_b, residual_b, gap_b);
+    EXPECT_TRUE(a.q == b.q && a.p == b.p && a.lambda == b.lambda && a.force == b.force) << threads;
+    EXPECT_EQ(drift, drift_b);
+    // The energy drift is the method's (not round-off): the same to a few digits; the residual
+    // is round-off of the solve, within a few times the one-thread run's.
+    EXPECT_NEAR(drift, drift1, 1e-3 * drift1 + 1e-13) << threads;
+    EXPECT_LE(residual, 10.0 * residual1 + 1e-14) << threads << " one thread " << residual1;
+    EXPECT_NEAR(gap, gap1, 1e-9 * gap1 + 1e-12) << threads;
+    EXPECT_LE(relative(a.q, one.q), 1e-9) << threads;  // 1000 steps of round-off, not a divergence
+  }
+}
+
+// Inside the caller's own parallel region (nested parallelism off: a team of one) the
+// partitions run in turn on the calling thread: the same bits as on their own threads.
+TEST(ChainThreads, ASmallerTeamGivesTheSameBits) {
+  const Chain c = random_chain(24, 9);
+  const RattleOptions o = one_form();
+  Workspace reference_ws(c.model, on_threads(4));
+  State reference = start_from_velocity(c.model, reference_ws, 0.0, c.q0, c.v0);
+  const State start = reference;
+  for (int k = 0; k < 50; ++k) ASSERT_EQ(step(c.model, reference_ws, reference, o), Status::Ok);
+  State states[2] = {start, start};
+  int failures = 0;
+#pragma omp parallel num_threads(2) reduction(+ : failures)
+  {
+    const int i = omp_get_thread_num();
+    Workspace ws(c.model, on_threads(4));
+    for (int k = 0; k < 50; ++k) failures += step(c.model, ws, states[i], o) != Status::Ok;
+  }
+  EXPECT_EQ(failures, 0);
+  for (const State& s : states)
+    EXPECT_TRUE(s.q == reference.q && s.p == reference.p && s.lambda == reference.lambda && s.force == reference.force);
+}
+
+// The driven train (a thrust on the lead, springs): its thrust is evaluated once on the calling
+// thread and read by the partitions; the run agrees with one thread's, and a thrust that throws
+// fails the step as on one thread, the state untouched.
+TEST(ChainThreads, ADrivenTrainAgreesAndAThrowingThrustFailsAlike) {
+  const auto setup = testing::scene("wheeled_train", {"bodies=30"});
+  ASSERT_EQ(max_step_threads(setup.model), 15);
+  Workspace one(setup.model), many(setup.model, on_threads(3));
+  ASSERT_EQ(many.threads(), 3);
+  const RattleOptions o = one_form();
+  State a = start_from_velocity(setup.model, one, 0.0, setup.q0, setup.v0);
+  State b = a;
+  double worst = 0.0;
+  for (int k = 0; k < 300; ++k) {
+    ASSERT_EQ(step(setup.model, one, a, o), Status::Ok) << one.message();
+    ASSERT_EQ(step(setup.model, many, b, o), Status::Ok) << many.message();
+    worst = std::max({worst, relative(b.q, a.q), relative(b.p, a.p), relative(b.force, a.force)});
+  }
+  EXPECT_LE(worst, 1e-11) << "300 steps of round-off";
+  ModelBuilder builder;  // the same kind of chain with a thrust that throws after t = 0.05
+  for (int i = 0; i < 8; ++i)
+    builder.add_planar_body({"x" + std::to_string(i), "y" + std::to_string(i), "t" + std::to_string(i)}, 1, 0.2);
+  for (int i = 0; i < 8; ++i) {
+    builder.add_knife_edge({i, 0.1});
+    if (i < 7) builder.add_hitch({i, i + 1, 0.5, 0.5});
+  }
+  builder.add_thrust({5, [](double t) -> double {
+                        if (t > 0.05) throw std::runtime_error("thrust table ends");
+                        return 1.0;
+                      }, nullptr});
+  const Model thrown = builder.build();
+  Vector q0 = Vector::Zero(24), v0 = Vector::Zero(24);
+  for (int i = 0; i < 8; ++i) q0[3 * i] = -1.0 * i, v0[3 * i] = 1.0;
+  Workspace t1(thrown), t4(thrown, on_threads(4));
+  State s1 = start_from_velocity(thrown, t1, 0.0, q0, v0), s4 = s1;
+  Status last1 = Status::Ok, last4 = Status::Ok;
+  for (int k = 0; k < 10 && last1 == Status::Ok; ++k) last1 = step(thrown, t1, s1, o);
+  for (int k = 0; k < 10 && last4 == Status::Ok; ++k) last4 = step(thrown, t4, s4, o);
+  EXPECT_NE(last1, Status::Ok);
+  EXPECT_EQ(last4, last1) << t4.message();
+  EXPECT_STREQ(t4.message(), t1.message());
+  EXPECT_EQ(s4.steps, s1.steps);
+  EXPECT_LE(relative(s4.q, s1.q), 1e-13) << "the state is the one before the failed step, in both";
+}
+
+// A pivot test failing under partitions: the one-thread step's status, a message naming a
+// row, the state untouched, and the next step right.
+TEST(ChainThreads, AFailedPivotLeavesTheStateAsItWas) {
+  const Chain c = random_chain(12, 6);
+  Workspace one(c.model), many(c.model, on_threads(3));
+  State s = start_from_velocity(c.model, one, 0.0, c.q0, c.v0);
+  ASSERT_EQ(step(c.model, many, s, one_form()), Status::Ok);
+  const State before = s;
+  RattleOptions strict = one_form();
+  strict.min_pivot_ratio = 0.9;
+  State b = before;
+  EXPECT_EQ(step(c.model, one, b, strict), Status::NearlyDependentOneForms);
+  EXPECT_EQ(step(c.model, many, s, strict), Status::NearlyDependentOneForms) << many.message();
+  EXPECT_NE(std::string(many.message()).find("pivot of row"), std::string::npos) << many.message();
+  EXPECT_TRUE(s.q == before.q && s.p == before.p && s.lambda == before.lambda && s.force == before.force);
+  State a = before;
+  b = before;
+  ASSERT_EQ(step(c.model, many, a, one_form()), Status::Ok) << many.message();
+  ASSERT_EQ(step(c.model, one, b, one_form()), Status::Ok);
+  EXPECT_LE(relative(a.p, b.p), 1e-13);
+}
+
+// A holonomic step after a partitioned one (options changed on the same workspace) factorises
+// C in natural order for its corrections: it agrees with a one-thread workspace.
+TEST(ChainThreads, HolonomicStepsAfterPartitionedOnesAreRight) {
+  const Chain c = random_chain(16, 7);
+  Workspace one(c.model), many(c.model, on_threads(2));
+  RattleOptions holonomic = one_form();
+  holonomic.hitch = HitchMode::Holonomic;
+  State a = start_from_velocity(c.model, one, 0.0, c.q0, c.v0), b = a;
+  for (int k = 0; k < 10; ++k) {
+    const RattleOptions& o = k % 2 ? holonomic : one_form();
+    ASSERT_EQ(step(c.model, one, a, o), Status::Ok) << one.message();
+    ASSERT_EQ(step(c.model, many, b, o), Status::Ok) << many.message();
+  }
+  EXPECT_LE(relative(b.q, a.q), 1e-13);
+  EXPECT_LE(relative(b.p, a.p), 1e-12);
+}
+
+}  // namespace
+}  // namespace nonholo
