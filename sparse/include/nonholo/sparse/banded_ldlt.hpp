@@ -27,9 +27,13 @@ bool band_is_compact(const SymmetricPattern& pattern);
 /// diagonal and its row, or the first row whose test failed. One per thread when threads
 /// eliminate disjoint rows of one band (a partitioned chain step), merged in a fixed order.
 struct PivotLog {
-  double min_ratio = std::numeric_limits<double>::infinity();
-  int min_row = -1, bad_row = -1;  // bad_row: the row whose pivot test failed (-1: none)
+  double min_ratio = std::numeric_limits<double>::infinity();  ///< the smallest pivot / diagonal so far
+  int min_row = -1;  ///< its row
+  int bad_row = -1;  ///< the first row whose pivot test failed (-1: none)
+  /// That row's pivot and diagonal.
+  ///@{
   double bad_pivot = 0.0, bad_diagonal = 0.0;
+  ///@}
   /// The pivot test of row r: the ratio d / diagonal is tested by products (a division is on
   /// no critical path but the reciprocal's) and divided out only at a new minimum. On success
   /// `slot` (the band's diagonal) gets 1 / d.
@@ -59,7 +63,7 @@ struct PivotLog {
       min_row = other.min_row;
     }
   }
-  static constexpr double kHuge = 1.7976931348623157e308;  // largest finite double
+  static constexpr double kHuge = 1.7976931348623157e308;  ///< the largest finite double
 };
 
 /// The Banded backend (see banded_ldlt.hpp).
