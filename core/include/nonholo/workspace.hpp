@@ -42,8 +42,8 @@ struct WorkspaceOptions {
   /// Threads for one step of one chain (docs/design.md, "One chain on several threads"): the
   /// common chain of knife edges and hitches (ElementSet::hitched_chain; springs and thrusts
   /// too) in one-form mode is split into this many partitions of consecutive bodies, one per
-  /// thread, at construction (std::invalid_argument for fewer than 1, or more than half the
-  /// bodies). Thrust callbacks are called on the calling thread, before the others start.
+  /// thread, at construction (std::invalid_argument for fewer than 1, or for such a chain more
+  /// than half its bodies). Thrust callbacks are called on the calling thread, before the others start.
   /// Other models and holonomic steps run on one thread. Threads only pay where cores are
   /// free: not inside a batch, which already gives each core a trajectory.
   int threads = 1;

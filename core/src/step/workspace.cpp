@@ -74,17 +74,16 @@ Workspace::~Workspace() = default;
 
 // One chain on several threads (chain_partitions.hpp): the common chain of knife edges and hitches.
 void Workspace::set_up_threads(int threads) {
-  const int bodies = model_->num_bodies();
   if (threads < 1)
     throw std::invalid_argument("WorkspaceOptions::threads = " + std::to_string(threads) + ": give 1 or more");
-  if (threads == 1) return;
-  if (threads > bodies / 2)
+  const detail::ElementSet* set = model_->element_set();
+  if (threads == 1 || !fused() || !set || !set->hitched_chain) return;  // a step not split: one thread
+  const int bodies = model_->num_bodies(), limit = max_step_threads(*model_);
+  if (threads > limit)
     throw std::invalid_argument("WorkspaceOptions::threads = " + std::to_string(threads) + " for " +
                                 std::to_string(bodies) + " bodies: each thread needs at least 2 bodies, so at most " +
-                                std::to_string(bodies / 2) + " threads");
-  if (fused() && max_step_threads(*model_) > 1)
-    partitions_ = std::make_unique<detail::ChainPartitions>(bodies, threads,
-                                                            static_cast<int>(model_->element_set()->thrusts.size()));
+                                std::to_string(limit) + (limit == 1 ? " thread" : " threads"));
+  partitions_ = std::make_unique<detail::ChainPartitions>(bodies, threads, static_cast<int>(set->thrusts.size()));
 }
 
 int Workspace::threads() const { return partitions_ ? partitions_->parts : 1; }

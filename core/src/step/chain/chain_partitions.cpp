@@ -7,7 +7,6 @@
 #include <omp.h>
 
 #include <cmath>
-#include <exception>
 
 #include "step/chain/chain_sweep.hpp"
 
@@ -417,25 +416,17 @@ Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, 
   sparse::PivotLog separators;
   double separator_gap = 0.0;
   bool forward_ok = true, reduced_ok = true;
-  std::exception_ptr thrown;  // a thrust callback's, the first partition's that threw
-  int thrown_at = parts;
+  // Nothing in the region throws (the thrusts were called above), so nothing escapes it.
 #pragma omp parallel num_threads(parts)
   {
     // MXCSR is per thread and pooled workers do not inherit it: flush subnormals in each.
     const FlushSubnormals flush;
     const int team = omp_get_num_threads();  // fewer when nested or limited: partitions in turn
     bool ok = true;
-    for (int j = omp_get_thread_num(); j < parts; j += team) {
-      try {
-        ok = (j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next)
-                     : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next)) &&
-             ok;
-      } catch (...) {
-#pragma omp critical(nonholo_parted_throw)
-        if (j < thrown_at) thrown_at = j, thrown = std::current_exception();
-        ok = false;
-      }
-    }
+    for (int j = omp_get_thread_num(); j < parts; j += team)
+      ok = (j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next)
+                   : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next)) &&
+           ok;
     if (!ok) {
 #pragma omp atomic write
       forward_ok = false;
@@ -450,7 +441,6 @@ Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, 
         j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).backward()
                : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).backward();
   }
-  if (thrown) std::rethrow_exception(thrown);
   // The partitions' pivot tests in row order, then the separators'.
   for (const auto& part : cp.part) band.merge_pivots(part.pivots);
   band.merge_pivots(separators);
