@@ -122,12 +122,13 @@ void restart_loop(benchmark::State& s, const char* restart, int monitor_every) {
 void ChainStep_OneForm_Plain(benchmark::State& s) { restart_loop(s, "0", 0); }
 
 // One chain on several threads (WorkspaceOptions::threads): the one-form step with the
-// default options (the mode measured and restarts as they come) and the bare step, for
-// (bodies, threads). Compare threads = 1 and P in the same run (ratios, not times).
-void threads_loop(benchmark::State& s, bool bare) {
+// default options (the mode measured and restarts as they come) and the bare step, and the
+// holonomic step (default options: its gap corrections on the threads too), for (bodies,
+// threads). Compare threads = 1 and P in the same run (ratios, not times).
+void threads_loop(benchmark::State& s, bool bare, HitchMode mode = HitchMode::OneForm) {
   const long n = s.range(0);
   const int threads = static_cast<int>(s.range(1));
-  Chain& c = chain(n, true, Backend::Auto, HitchMode::OneForm, threads);
+  Chain& c = chain(n, true, Backend::Auto, mode, threads);
   RattleOptions o = c.options;
   if (bare) {
     set_restart(o.restart, "0");
@@ -145,6 +146,7 @@ void threads_loop(benchmark::State& s, bool bare) {
 }
 void ChainStep_OneForm_Threads(benchmark::State& s) { threads_loop(s, false); }
 void ChainStep_OneForm_Plain_Threads(benchmark::State& s) { threads_loop(s, true); }
+void ChainStep_Holonomic_Threads(benchmark::State& s) { threads_loop(s, false, HitchMode::Holonomic); }
 void ChainStep_OneForm_PlainMeasured(benchmark::State& s) { restart_loop(s, "0", 8); }
 void ChainStep_OneForm_Auto(benchmark::State& s) { restart_loop(s, "auto", 8); }
 void ChainStep_OneForm_AutoEveryStep(benchmark::State& s) { restart_loop(s, "auto", 1); }
@@ -255,6 +257,7 @@ void thread_sizes(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(ChainStep_OneForm_Threads)->Apply(thread_sizes);
 BENCHMARK(ChainStep_OneForm_Plain_Threads)->Apply(thread_sizes);
+BENCHMARK(ChainStep_Holonomic_Threads)->Apply(thread_sizes);
 BENCHMARK(ChainStep_OneForm)->Apply(sizes);
 BENCHMARK(ChainStep_OneForm)->Apply(million);
 BENCHMARK(ChainStep_OneForm_Plain)->Apply(restart_sizes);

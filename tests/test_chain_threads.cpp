@@ -1,6 +1,7 @@
 // One chain on several threads (core/src/step/chain/chain_partitions.cpp): the partitioned
-// one-form step against the one-thread step (to round-off, q bit for bit), against the general
-// path through CHOLMOD (independent), bitwise repeatable for a given thread count, with the
+// step (one-form; holonomic with its corrections, chain_partitions_passes.cpp) against the
+// one-thread step (to round-off, q bit for bit in one-form mode), against the general path
+// through CHOLMOD (independent), bitwise repeatable for a given thread count, with the
 // period-2 mode's measurement and restarts solving with the partitioned factorisation; its
 // edge cases (partitions of two bodies, a failing pivot) and its refusals. No allocation:
 // test_no_allocation.cpp.
@@ -17,6 +18,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "run/team_probe.hpp"
 #include "support/scenes.hpp"
 
 
@@ -370,8 +372,9 @@ TEST(ChainThreads, AFailedPivotLeavesTheStateAsItWas) {
   EXPECT_LE(relative(a.p, b.p), 1e-13);
 }
 
-// A holonomic step after a partitioned one (options changed on the same workspace) factorises
-// C in natural order for its corrections: it agrees with a one-thread workspace.
+// Hitch modes alternating on the same workspace (options changed between steps): each
+// holonomic step corrects with the factorisation the one-form step before it left, and agrees
+// with a one-thread workspace.
 TEST(ChainThreads, HolonomicStepsAfterPartitionedOnesAreRight) {
   const Chain c = random_chain(16, 7);
   Workspace one(c.model), many(c.model, on_threads(2));
@@ -385,6 +388,144 @@ TEST(ChainThreads, HolonomicStepsAfterPartitionedOnesAreRight) {
   }
   EXPECT_LE(relative(b.q, a.q), 1e-13);
   EXPECT_LE(relative(b.p, a.p), 1e-12);
+}
+
+// Holonomic hitches: the position corrections solve with the partitioned factorisation of
+// C(q_k) the last step left (chain_partitions_passes.cpp) and the kicked sweep runs on the
+// threads. One step from the threads' own trajectory, against a one-thread workspace and the
+// general path through CHOLMOD stepping from the same state: the corrections stop once the
+// gaps are below gap_tolerance (1e-12), so two solvers' q differ by up to that and p, lambda
+// by that times 2/h and C's condition (measured 1e-9 for CHOLMOD against one thread at 101
+// bodies). That spread is where each iteration happens to stop, not the elimination order:
+// CHOLMOD's difference is one sample of it, the threads' another (their ratio measured 0.5 to
+// 2.6 over these chains, gcc and clang builds), so the threads' must stay within 4 times it.
+TEST(ChainThreads, HolonomicStepsAgreeWithOneThread) {
+  for (int n : {14, 40, 101})
+    for (int threads : {2, 3, 4, 7}) {
+      const Chain c = random_chain(n, 30 + n);
+      Workspace one(c.model), many(c.model, on_threads(threads)), general(c.model, {sparse::Backend::CholmodNatural});
+      RattleOptions o = one_form();
+      o.hitch = HitchMode::Holonomic;
+      State b = start_from_velocity(c.model, many, 0.0, c.q0, c.v0);
+      double worst = 0.0, other = 0.0, worst_q = 0.0, other_q = 0.0;
+      int corrected = 0;
+      for (int k = 0; k < 60; ++k) {
+        State a = b, g = b;
+        ASSERT_EQ(step(c.model, one, a, o), Status::Ok) << one.message();
+        ASSERT_EQ(step(c.model, general, g, o), Status::Ok) << general.message();
+        const long factorizations = many.factorizations;
+        ASSERT_EQ(step(c.model, many, b, o), Status::Ok) << many.message();
+        // After the first step the corrections reuse the partitioned C(q_k): one factorisation.
+        if (k > 0) {
+          EXPECT_EQ(many.factorizations - factorizations, 1) << k;
+        }
+        corrected += many.gap_iterations;
+        worst_q = std::max(worst_q, relative(b.q, a.q));
+        other_q = std::max(other_q, relative(g.q, a.q));
+        worst = std::max({worst, relative(b.p, a.p), relative(b.lambda, a.lambda)});
+        other = std::max({other, relative(g.p, a.p), relative(g.lambda, a.lambda)});
+        ASSERT_LE(many.step_diagnostics.gap, o.gap_tolerance) << k;
+      }
+      EXPECT_GE(corrected, 60) << "every step corrects its gaps at least once";
+      EXPECT_LE(worst_q, std::max(1e-13, 2.0 * other_q)) << "n " << n << " threads " << threads << ", CHOLMOD " << other_q;
+      EXPECT_LE(worst, std::max(1e-11, 4.0 * other)) << "n " << n << " threads " << threads << ", CHOLMOD " << other;
+    }
+}
+
+// Holonomic runs of 1000 steps: bit for bit the same for the same threads, the energy and gaps
+// as on one thread.
+TEST(ChainThreads, HolonomicRunsRepeatBitwise) {
+  const Chain c = random_chain(40, 8);
+  RattleOptions o = one_form();
+  o.hitch = HitchMode::Holonomic;
+  auto run = [&](int threads, double& drift, double& gap) {
+    Workspace ws(c.model, on_threads(threads));
+    State s = start_from_velocity(c.model, ws, 0.0, c.q0, c.v0);
+    const double e0 = diagnose(c.model, ws, s, o.h).energy;
+    drift = gap = 0.0;
+    for (int k = 0; k < 1000; ++k) {
+      EXPECT_EQ(step(c.model, ws, s, o), Status::Ok) << ws.message();
+      const Diagnostics d = diagnose_step(c.model, ws, s, o.h);
+      drift = std::max(drift, std::abs(d.energy - e0) / std::abs(e0));
+      gap = std::max(gap, d.gap);
+    }
+    return s;
+  };
+  double drift1, gap1;
+  const State one = run(1, drift1, gap1);
+  for (int threads : {2, 5}) {
+    double drift, gap, drift_b, gap_b;
+    const State a = run(threads, drift, gap), b = run(threads, drift_b, gap_b);
+    EXPECT_TRUE(a.q == b.q && a.p == b.p && a.lambda == b.lambda && a.force == b.force) << threads;
+    EXPECT_NEAR(drift, drift1, 1e-3 * drift1 + 1e-13) << threads;
+    EXPECT_LE(gap, o.gap_tolerance * 4) << threads << " one thread " << gap1;
+    EXPECT_LE(relative(a.q, one.q), 1e-9) << threads;
+  }
+}
+
+// Workspace::set_team: the partitions run on fewer threads (in turn) with the same bits, the
+// team changed between any two steps, in both hitch modes (the run's fallback on busy cores).
+TEST(ChainThreads, ChangingTheTeamKeepsTheBits) {
+  const Chain c = random_chain(30, 11);
+  for (HitchMode mode : {HitchMode::OneForm, HitchMode::Holonomic}) {
+    RattleOptions o = one_form();
+    o.hitch = mode;
+    Workspace steady(c.model, on_threads(4)), switching(c.model, on_threads(4));
+    ASSERT_EQ(switching.team(), 4);
+    switching.set_team(0);
+    EXPECT_EQ(switching.team(), 1) << "clamped";
+    switching.set_team(9);
+    EXPECT_EQ(switching.team(), 4) << "clamped";
+    steady.set_team(2);  // no more threads than the 2 cores of the development machine
+    State a = start_from_velocity(c.model, steady, 0.0, c.q0, c.v0), b = a;
+    for (int k = 0; k < 60; ++k) {
+      switching.set_team(1 + k % 2);
+      ASSERT_EQ(step(c.model, steady, a, o), Status::Ok) << steady.message();
+      ASSERT_EQ(step(c.model, switching, b, o), Status::Ok) << switching.message();
+    }
+    EXPECT_TRUE(a.q == b.q && a.p == b.p && a.lambda == b.lambda && a.force == b.force) << to_string(mode);
+    EXPECT_EQ(Workspace(c.model).team(), 1);
+  }
+}
+
+// The run's probe (scenarios' team_probe.hpp) with a clock of its own: a block of steps on the
+// run's threads, a block on one, the faster kept until the next probe; on busy cores (one
+// thread faster) it falls back and says so, and goes back to the threads when they pay again.
+TEST(ChainThreads, TheRunsProbeFallsBackToOneThreadWhenTheCoresAreBusy) {
+  using scenarios::TeamProbe;
+  double now = 0.0, per_step[2] = {0.0, 0.0};  // seconds a step on one thread, on the run's
+  int team = 4;
+  std::vector<int> teams;
+  TeamProbe probe(4, [&](int t) { team = t, teams.push_back(t); }, [&] { return now; });
+  auto run_steps = [&](int count) {
+    for (int k = 0; k < count; ++k) {
+      probe.before_step();
+      now += per_step[team == 1 ? 0 : 1];
+      probe.after_step();
+    }
+  };
+  const int cycle = (2 + TeamProbe::kProbeEvery) * TeamProbe::kBlock;
+  per_step[0] = 1.0, per_step[1] = 0.6;  // free cores: the threads pay
+  run_steps(TeamProbe::kWarmUp + cycle);
+  EXPECT_EQ(team, 4);
+  EXPECT_EQ(teams, (std::vector<int>{1, 4})) << "the probe's block on one thread, then back";
+  EXPECT_EQ(probe.note(cycle), "");
+  per_step[1] = 3.0;  // busy cores: a barrier waits for a descheduled thread
+  run_steps(cycle);
+  EXPECT_EQ(team, 1);
+  EXPECT_EQ(probe.steps_on_one(), TeamProbe::kProbeEvery * TeamProbe::kBlock);
+  const std::string note = probe.note(TeamProbe::kWarmUp + 2 * cycle);
+  EXPECT_NE(note.find("the chain's 4 threads ran a step slower than one thread (3e+03 against 1e+03 ms"),
+            std::string::npos)
+      << note;
+  EXPECT_NE(note.find("ran on one thread for 512 of 1058 steps"), std::string::npos) << note;
+  EXPECT_NE(note.find("the same results"), std::string::npos) << note;
+  per_step[1] = 0.6;  // free again
+  run_steps(cycle);
+  EXPECT_EQ(team, 4);
+  TeamProbe single(1, [&](int) { ADD_FAILURE() << "a one-thread run has no team to change"; }, [&] { return now; });
+  for (int k = 0; k < 3 * cycle; ++k) single.before_step(), single.after_step();
+  EXPECT_EQ(single.note(3 * cycle), "");
 }
 
 }  // namespace

@@ -243,7 +243,7 @@ void expect_failure(const std::vector<std::string>& args, const std::string& fra
   EXPECT_THAT(r.err + r.out, HasSubstr(fragment)) << ::testing::PrintToString(args);
 }
 
-// --threads splits a one-form chain's step (WorkspaceOptions::threads) and the summary says how
+// --threads splits a chain's step (WorkspaceOptions::threads) and the summary says how
 // many ran: the run agrees with one thread's to round-off; below 2 kBodiesPerThread the default
 // is one thread; threads that cannot help are run on one, with a warning.
 TEST(CommandLine, ThreadsSplitAChainAndAreReported) {
@@ -263,11 +263,22 @@ TEST(CommandLine, ThreadsSplitAChainAndAreReported) {
   for (const char* key : {"energy_rel_err_max", "gap_max", "parasitic_max", "extent"})
     EXPECT_NEAR(std::stod(four[key]), std::stod(one[key]), 1e-6 * std::stod(one[key])) << key;
   EXPECT_EQ(four["restarts"], one["restarts"]);
+  // Holonomic hitches (the default) split too, their gaps closed as on one thread.
   const Result holonomic = run({"run", "sleigh_chain", "--set", "bodies=40", "--threads", "2"});
+  const Result holonomic_one = run({"run", "sleigh_chain", "--set", "bodies=40", "--threads", "1"});
   EXPECT_EQ(holonomic.code, 0) << holonomic.err;
-  EXPECT_EQ(parse_summary(holonomic.out)["threads"], "1");
-  EXPECT_THAT(holonomic.err, HasSubstr("--threads 2: ran on one thread"));
-  EXPECT_THAT(holonomic.err, HasSubstr("holonomic hitches are not split yet"));
+  EXPECT_THAT(holonomic.err, ::testing::Not(HasSubstr("ran on one thread: threads split")));
+  auto h2 = parse_summary(holonomic.out), h1 = parse_summary(holonomic_one.out);
+  EXPECT_EQ(h2["threads"], "2");
+  EXPECT_EQ(h2["status"], "ok");
+  for (const char* key : {"energy_rel_err_max", "extent"})
+    EXPECT_NEAR(std::stod(h2[key]), std::stod(h1[key]), 1e-6 * std::stod(h1[key])) << key;
+  EXPECT_LE(std::stod(h2["gap_max"]), 1e-12);
+  // A model that is not a chain of hitches runs on one thread, said so.
+  const Result sleigh = run({"run", "sleigh", "--threads", "2"});
+  EXPECT_EQ(sleigh.code, 0) << sleigh.err;
+  EXPECT_EQ(parse_summary(sleigh.out)["threads"], "1");
+  EXPECT_THAT(sleigh.err, HasSubstr("--threads 2: ran on one thread"));
 }
 
 TEST(CommandLine, BadInputGetsAClearErrorAndNonZeroExit) {

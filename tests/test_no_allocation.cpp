@@ -224,24 +224,27 @@ TEST(NoAllocation, LargerModelWithForcesOnEveryBackend) {
 }
 
 // A chain split over threads (WorkspaceOptions::threads): its workers allocate nothing either,
-// once the thread pool has started (the first steps), with the mode measured and restarted.
+// once the thread pool has started (the first steps), with the mode measured and restarted, in
+// both hitch modes (holonomic: the corrections' passes on the threads too).
 TEST(NoAllocation, ChainOnThreads) {
   const auto setup = testing::scene("sleigh_chain", {"bodies=60", "k=2"});
-  WorkspaceOptions threads;
-  threads.threads = 3;
-  Workspace ws(setup.model, threads);
-  ASSERT_EQ(ws.threads(), 3);
-  State s = start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0);
-  RattleOptions o;
-  o.hitch = HitchMode::OneForm;
-  o.restart.mode = RestartMode::Periodic;
-  o.restart.every = 5;
-  for (int k = 0; k < 3; ++k) ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok) << ws.message();
-  testing::start_counting_allocations();
-  for (int k = 0; k < 200; ++k)
-    if (step(setup.model, ws, s, o) != Status::Ok) break;
-  EXPECT_EQ(testing::stop_counting_allocations(), 0);
-  EXPECT_EQ(s.steps, 203) << ws.message();
+  for (HitchMode mode : {HitchMode::OneForm, HitchMode::Holonomic}) {
+    WorkspaceOptions threads;
+    threads.threads = 3;
+    Workspace ws(setup.model, threads);
+    ASSERT_EQ(ws.threads(), 3);
+    State s = start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0);
+    RattleOptions o;
+    o.hitch = mode;
+    o.restart.mode = RestartMode::Periodic;
+    o.restart.every = 5;
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok) << ws.message();
+    testing::start_counting_allocations();
+    for (int k = 0; k < 200; ++k)
+      if (step(setup.model, ws, s, o) != Status::Ok) break;
+    EXPECT_EQ(testing::stop_counting_allocations(), 0) << to_string(mode);
+    EXPECT_EQ(s.steps, 203) << ws.message();
+  }
 }
 
 }  // namespace

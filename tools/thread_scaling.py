@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """One chain on several threads (issue 34): runs benchmarks/bench_chain's
-ChainStep_OneForm_Threads (default options: the period-2 mode measured, restarts as they come)
-and ChainStep_OneForm_Plain_Threads (the bare step) for N = 10^3 ... 10^6 bodies and
+ChainStep_OneForm_Threads (default options: the period-2 mode measured, restarts as they come),
+ChainStep_OneForm_Plain_Threads (the bare step) and ChainStep_Holonomic_Threads (holonomic
+hitches, default options: the gap corrections' passes too) for N = 10^3 ... 10^6 bodies and
 P = 1, 2, 4, ... threads up to the processors present, then writes a strong-scaling table
 (ns per body-step, speed-up against P = 1 in the same run) and a plot.
 
@@ -18,7 +19,8 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SERIES = [("ChainStep_OneForm_Threads", "one-form step, default options"),
-          ("ChainStep_OneForm_Plain_Threads", "one-form step, bare (--restart 0 --monitor-every 0)")]
+          ("ChainStep_OneForm_Plain_Threads", "one-form step, bare (--restart 0 --monitor-every 0)"),
+          ("ChainStep_Holonomic_Threads", "holonomic step, default options")]
 
 
 def run(bench, repetitions, out):
@@ -84,11 +86,11 @@ def main():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for (family, label), style in zip(SERIES, ["-", ":"]):
+    for (family, label), style in zip(SERIES, ["-", ":", "--"]):
         cells = t.get(family, {})
         for n, marker in zip(sorted({n for n, _ in cells}), "osD^"):
             ps = sorted(p for m, p in cells if m == n)
-            axes[0].plot(ps, [cells[(n, p)] for p in ps], marker + style, label="N = %d, %s" % (n, label.split(",")[1]))
+            axes[0].plot(ps, [cells[(n, p)] for p in ps], marker + style, label="N = %d, %s" % (n, label.split(" (")[0]))
             if (n, 1) in cells:
                 axes[1].plot(ps, [cells[(n, 1)] / cells[(n, p)] for p in ps], marker + style)
     top = max((p for cells in t.values() for _, p in cells), default=2)

@@ -79,8 +79,9 @@ class RunResult(_Result):
         energy, energy_post, residual, gap   (frames,) per-frame diagnostics (gap: the hitches'
                      largest |g|; None from a CSV file)
         summary      the summary line as a dict, numbers unrounded; "status" is "ok" unless a step
-                     failed ("message" says why), "warning" what the CLI prints on stderr ({} from
-                     a CSV file, which has no summary)
+                     failed ("message" says why), "warning" what the CLI prints on stderr,
+                     "threads_note" when one thread ran a split chain's steps faster (a timing,
+                     not repeatable) ({} from a CSV file, which has no summary)
         line         the summary line exactly as `nonholo run` prints it ("" from a file)
     """
 
@@ -281,8 +282,9 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
     or HDF5 for .h5). With rigid bodies q holds each body's quaternion (w, x, y, z) and centre.
     checkpoint (an .h5 path) writes the run's whole state at its end (also when it fails or
     Ctrl-C stops it) and, with checkpoint_every (steps, or "60s"), during it;
-    threads splits one step of a chain (hitch "oneform") over that many threads (default: one
-    thread per 500 bodies, up to every usable core; summary["threads"] says how many ran).
+    threads splits one step of a chain of knife edges and hitches over that many threads
+    (default: one thread per 500 bodies with hitch "oneform", per 5000 with "holonomic", up to
+    every usable core; summary["threads"] says how many ran).
     run(resume=path, t_end=...) continues such a run bit for bit, with the checkpoint's options
     (no scene or other option then), its frames from where it resumed (the output file has the
     earlier ones). Bad options raise ValueError with the tool's message, naming the keywords

@@ -91,6 +91,7 @@ py::dict summary_dict(const RunSummary& s) {
   }
   d["message"] = s.message;
   d["warning"] = s.warning;
+  d["threads_note"] = s.threads_note;
   return d;
 }
 

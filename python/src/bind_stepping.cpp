@@ -183,7 +183,7 @@ void bind_workspace(py::module_& m) {
   py::class_<Workspace>(m, "Workspace", R"(Every buffer and the factorisation one thread needs to integrate a model
 (one Workspace per thread; it keeps its model alive). backend: 'auto', 'block-diagonal',
 'dense', 'banded', 'cholmod-natural' or 'cholmod-amd'. threads splits one step of a chain of knife
-edges and hitches (one-form hitches) over that many threads, at most half its bodies
+edges and hitches (either hitch mode) over that many threads, at most half its bodies
 (ValueError above); other models and steps run on one (see the threads property). message says
 why the last call failed. One call at a time: see step().)")
       .def(py::init([](const PyModel& model, const std::string& backend, bool composed_steps, bool dla_steps,

@@ -373,6 +373,7 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     const RunSummary summary = run_scene(run.config);
     (run.config.csv_path == "-" ? err : out) << summary.line() << std::endl;  // --out -: the CSV is stdout
     if (!summary.warning.empty()) say(err, "nonholo run: warning: " + summary.warning);
+    if (!summary.threads_note.empty()) say(err, "nonholo run: note: " + summary.threads_note);
     if (summary.status != Status::Ok) {
       say(err, "nonholo run: " + summary.message);
       if (summary.status == Status::Inaccurate) return kInaccurateExit;

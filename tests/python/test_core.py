@@ -472,8 +472,8 @@ def test_steps_without_the_gil_matches_repeated_step_on_an_element_chain():
 
 
 def test_a_chain_built_in_python_steps_on_threads():
-    # WorkspaceOptions.threads from Python: an element chain's one-form step on 3 threads is the
-    # one-thread step to round-off (another elimination order).
+    # WorkspaceOptions.threads from Python: an element chain's step on 3 threads is the
+    # one-thread step to round-off (another elimination order), in both hitch modes.
     model = chain_builder(12).build()
     ws1, ws3 = nonholo.Workspace(model), nonholo.Workspace(model, threads=3)
     assert (ws1.threads, ws3.threads) == (1, 3)
@@ -483,6 +483,13 @@ def test_a_chain_built_in_python_steps_on_threads():
     assert nonholo.steps(model, ws3, s3, options, 500) == nonholo.Status.Ok, ws3.message
     np.testing.assert_allclose(s3.q, s1.q, rtol=0, atol=1e-11)
     np.testing.assert_allclose(s3.p, s1.p, rtol=0, atol=1e-11)
+    # Holonomic hitches: the gap corrections on the threads too; the gaps closed as on one.
+    holonomic = nonholo.RattleOptions(0.01, hitch="holonomic")
+    h1, h3 = chain_start(model, ws1), chain_start(model, ws3)
+    assert nonholo.steps(model, ws1, h1, holonomic, 500) == nonholo.Status.Ok, ws1.message
+    assert nonholo.steps(model, ws3, h3, holonomic, 500) == nonholo.Status.Ok, ws3.message
+    np.testing.assert_allclose(h3.q, h1.q, rtol=0, atol=1e-10)
+    assert nonholo.diagnose(model, ws3, h3, 0.01).gap <= 1e-12
     with pytest.raises(ValueError, match="at most 6 threads"):
         nonholo.Workspace(model, threads=7)
     # A thrust given as a Python callable: called on the calling thread, before the others start.

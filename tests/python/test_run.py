@@ -46,7 +46,7 @@ def test_arrays_have_the_documented_shapes_and_types():
     assert "energy_rel_err_max=%s" % format(s["energy_rel_err_max"], ".6g") in r.line
 
 
-def test_threads_split_a_one_form_chain_as_the_tool_does():
+def test_threads_split_a_chain_as_the_tool_does():
     done = cli("run", "sleigh_chain", "--set", "bodies=30", "--hitch", "oneform", "--threads", "3", "--t-end", "1")
     assert done.returncode == 0, done.stderr
     r = nonholo.run("sleigh_chain", set={"bodies": 30}, hitch="oneform", threads=3, t_end=1)
@@ -55,6 +55,12 @@ def test_threads_split_a_one_form_chain_as_the_tool_does():
     one = nonholo.run("sleigh_chain", set={"bodies": 30}, hitch="oneform", threads=1, t_end=1)
     assert one.summary["threads"] == 1
     assert np.allclose(r.q, one.q, rtol=0, atol=1e-12)  # round-off: another elimination order
+    # Holonomic hitches (the default) too: gaps closed to gap_tolerance by either solve.
+    h3 = nonholo.run("sleigh_chain", set={"bodies": 30}, threads=3, t_end=1)
+    h1 = nonholo.run("sleigh_chain", set={"bodies": 30}, threads=1, t_end=1)
+    assert (h3.summary["threads"], h3.summary["status"]) == (3, "ok")
+    assert h3.summary["gap_max"] <= 1e-12
+    assert np.allclose(h3.q, h1.q, rtol=0, atol=1e-10)
     with pytest.raises(ValueError) as e:
         nonholo.run("sleigh_chain", set={"bodies": 30}, hitch="oneform", threads=16)
     assert "threads=16 for 30 bodies: each thread needs at least 2 bodies, so at most 15" in str(e.value)

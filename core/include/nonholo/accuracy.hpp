@@ -174,6 +174,9 @@ class AccuracyWatch {
   /// The estimate so far and its counters.
   const DoublingEstimate& estimate() const { return estimate_; }
 
+  /// The threads that run the shadow's partitions (Workspace::set_team; the same results).
+  void set_team(int threads) { ws_.set_team(threads); }
+
   /// Checkpoints: the estimate and the shadow's state (a sample may be under way); after load(),
   /// rebind() to the run's state.
   ///@{

@@ -41,11 +41,12 @@ struct WorkspaceOptions {
   bool dla_steps = true;
   /// Threads for one step of one chain (docs/design.md, "One chain on several threads"): the
   /// common chain of knife edges and hitches (ElementSet::hitched_chain; springs and thrusts
-  /// too) in one-form mode is split into this many partitions of consecutive bodies, one per
-  /// thread, at construction (std::invalid_argument for fewer than 1, or for such a chain more
-  /// than half its bodies). Thrust callbacks are called on the calling thread, before the others start.
-  /// Other models and holonomic steps run on one thread. Threads only pay where cores are
-  /// free: not inside a batch, which already gives each core a trajectory.
+  /// too), with one-form or holonomic hitches, is split into this many partitions of
+  /// consecutive bodies, one per thread, at construction (std::invalid_argument for fewer than
+  /// 1, or for such a chain more than half its bodies). Thrust callbacks are called on the
+  /// calling thread, before the others start. Other models run on one thread. Threads only pay
+  /// where cores are free: not inside a batch, which already gives each core a trajectory
+  /// (Workspace::set_team runs the partitions on fewer threads, with the same results).
   int threads = 1;
 };
 
@@ -71,8 +72,17 @@ class alignas(128) Workspace {
   sparse::Backend backend() const;
   const char* backend_name() const;
   ///@}
-  /// The threads a step of this model uses (WorkspaceOptions::threads where it applies, else 1).
+  /// The threads a step of this model uses (WorkspaceOptions::threads where it applies, else 1):
+  /// the partitions of its chain.
   int threads() const;
+  /// The threads that run those partitions, 1 to threads() (initially threads()): fewer run
+  /// them in turn, bit for bit the same results, without waiting at barriers for threads the
+  /// machine has no free core for (the run's fallback when its cores are busy). Values out of
+  /// range are clamped.
+  ///@{
+  void set_team(int threads);
+  int team() const { return team_; }
+  ///@}
   /// Why the last failed call failed ("" if it did not).
   const char* message() const { return message_.c_str(); }
   /// Held by the call that uses the workspace (busy_flag.hpp).
@@ -209,15 +219,15 @@ class alignas(128) Workspace {
     ++factorizations;
   }
   /// The partitions of a chain split over threads (nullptr on one thread), and whether the
-  /// factorisation is theirs (a partitioned step's: solve() then solves with it; the passes
-  /// that read the band row by row need a factorisation in natural order, factorize_serial_at).
+  /// factorisation is theirs (a partitioned step's: solve(), the mode's measurement and the
+  /// holonomic passes then solve with it on the partitions).
   ///@{
   detail::ChainPartitions* partitions() { return partitions_.get(); }
   bool factor_parted() const { return parted_; }
   ///@}
   /// factorize_at(q), but C(q) factorised in the band's natural order (refactorised when a
-  /// partitioned step left it partitioned): the holonomic corrections and the one-pass mode
-  /// measurement read it row by row.
+  /// partitioned step left it partitioned): the holonomic corrections from a state no fused step
+  /// arrived at (the first step, a resumed run) read it row by row.
   Status factorize_serial_at(ConstVecRef q, double min_pivot_ratio);
   ///@}
   /// Checkpoints (archive.hpp): what a step leaves for the next one, the one-forms, C(q)
@@ -232,8 +242,8 @@ class alignas(128) Workspace {
   ///@}
   /// Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
   bool sincos_hold(ConstVecRef q) const;
-  /// ... and C(q) is factorised (one comparison of q).
-  bool chain_factor_holds(ConstVecRef q) const { return factor_valid_ && !parted_ && sincos_hold(q); }
+  /// ... and C(q) is factorised (one comparison of q; in natural order or partitioned).
+  bool chain_factor_holds(ConstVecRef q) const { return factor_valid_ && sincos_hold(q); }
   /// chain_sincos now holds sin/cos of the q of the one-form cache (computed by the caller).
   void sincos_computed_for_key() { sincos_valid_ = key_valid_; }
   /// The Status and message of a failed factorisation (as factorize() reports it).
@@ -251,6 +261,7 @@ class alignas(128) Workspace {
   bool sincos_valid_ = false;  // chain_sincos holds sin/cos of mu_q_ (fused workspaces only)
   bool parted_ = false;        // the factorisation is partitions_' (a partitioned step's)
   std::unique_ptr<detail::ChainPartitions> partitions_;
+  int team_ = 1;               // set_team's
   bool options_known_ = false;  // options_ passed step()'s checks
   RattleOptions options_;
   Status report_non_finite_one_forms();

@@ -84,9 +84,12 @@ void Workspace::set_up_threads(int threads) {
                                 std::to_string(bodies) + " bodies: each thread needs at least 2 bodies, so at most " +
                                 std::to_string(limit) + (limit == 1 ? " thread" : " threads"));
   partitions_ = std::make_unique<detail::ChainPartitions>(bodies, threads, static_cast<int>(set->thrusts.size()));
+  team_ = threads;
 }
 
 int Workspace::threads() const { return partitions_ ? partitions_->parts : 1; }
+
+void Workspace::set_team(int threads) { team_ = std::max(1, std::min(threads, this->threads())); }
 
 int max_step_threads(const Model& model) {
   const detail::ElementSet* set = model.element_set();

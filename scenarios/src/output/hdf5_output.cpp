@@ -67,6 +67,7 @@ void describe_summary(hid_t file, const std::string& path, const RunSummary& s, 
   }
   attribute(g.get(), path, "message", s.message);
   attribute(g.get(), path, "warning", s.warning);
+  attribute(g.get(), path, "threads_note", s.threads_note);
 }
 
 // A dataset of `columns` columns (0: 1-D) that grows by rows: chunked (about 1 MB a chunk),

@@ -141,8 +141,7 @@ void RunLoop::set_up() {
   bodies = setup_->model.num_bodies();
   if (hooks_.on_model) hooks_.on_model(setup_->model);
   const SetupPhase phase = status;
-  const ThreadChoice threads =
-      choose_threads(config_.threads, setup_->model, reflection_, config_.hitch == HitchMode::OneForm);
+  const ThreadChoice threads = choose_threads(config_.threads, setup_->model, reflection_, config_.hitch);
   thread_warning_ = threads.warning;
   MethodChoice choice = run_.choice;
   choice.threads = threads.threads;
@@ -152,6 +151,7 @@ void RunLoop::set_up() {
     if (!is_scene_file(config_.scene)) throw;
     throw std::invalid_argument(config_.scene + ": " + e.what());
   }
+  team_probe_.emplace(runner_->threads(), [this](int team) { runner_->set_team(team); });
   if (config_.error_estimate) {
     MethodChoice companion = run_.companion.choice;
     companion.threads = threads.threads;
@@ -326,7 +326,9 @@ bool RunLoop::watches_fail(long k) {
 
 bool RunLoop::advance(long k) {
   const double t_before = runner_->t();
+  team_probe_->before_step();
   const Status status = runner_->advance(loop_.t0 + static_cast<double>(k) * run_.dt);
+  if (status == Status::Ok) team_probe_->after_step();
   if (status != Status::Ok) {
     summary_.status = status;
     std::ostringstream os;
@@ -507,6 +509,7 @@ void RunLoop::judge() {
     summary.rejected = runner_->rejected();
   }
   summary.factorizations = runner_->factorizations();
+  summary.threads_note = team_probe_->note(summary.steps);
   if (summary.restarts >= 0) summary.restarts = runner_->restarts();
   if (setup_->model.has_rigid_bodies()) summary.legendre_iterations_max = runner_->legendre_iterations();
   if (forced_) summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();  // not an invariant

@@ -19,6 +19,7 @@
 #include "run/run_checks.hpp"
 #include "run/run_internal.hpp"
 #include "run/stability_watch.hpp"
+#include "run/team_probe.hpp"
 
 namespace nonholo::scenarios {
 
@@ -109,6 +110,7 @@ class RunLoop {
   Vector force_, j_;         // scratch: F(t, q), the momentum maps
   double speed_floor_ = 0.0;
   std::string thread_warning_;  // set_up's: threads asked for that do not all help
+  std::optional<TeamProbe> team_probe_;  // the run's threads against one, as the load changes
 
   Clock::time_point loop_start_, last_checkpoint_, last_flush_;
   double output_s_ = 0.0, companion_s_ = 0.0, loop_s_ = 0.0;

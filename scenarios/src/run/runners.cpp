@@ -81,6 +81,10 @@ class ReflectionRunner final : public Runner {
   std::string message() const override { return ws_.message(); }
   std::string backend() const override { return ws_.backend_name(); }
   int threads() const override { return ws_.threads(); }
+  void set_team(int threads) override {
+    ws_.set_team(threads);
+    if (watch_) watch_->set_team(threads);
+  }
   double parasitic() const override { return ws_.parasitic; }
   long restarts() const override { return state_.restarts; }
   long legendre_iterations() const override { return ws_.legendre_iterations; }

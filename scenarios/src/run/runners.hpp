@@ -33,6 +33,8 @@ class Runner {
   virtual std::string message() const = 0;
   virtual std::string backend() const = 0;
   virtual int threads() const { return 1; }  // threads one step uses
+  // The threads that run them (Workspace::set_team: the same results; team_probe.hpp).
+  virtual void set_team(int) {}
   virtual long rhs_evaluations() const { return -1; }  // -1: not counted
   // ARKODE and adaptive composed steps: their own steps so far (-1 for the fixed-step methods).
   virtual long internal_steps() const { return -1; }

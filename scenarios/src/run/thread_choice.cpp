@@ -25,21 +25,19 @@ int usable_cores() {
   return std::max(1, std::min(cores, omp_get_max_threads()));
 }
 
-ThreadChoice choose_threads(int asked, const Model& model, bool reflection, bool one_form) {
-  const int limit = reflection && one_form ? max_step_threads(model) : 1;
+ThreadChoice choose_threads(int asked, const Model& model, bool reflection, HitchMode hitch) {
+  const int limit = reflection ? max_step_threads(model) : 1;
   const int cores = usable_cores();
   ThreadChoice c;
   if (asked == 0) {
-    if (limit > 1) c.threads = std::max(1, std::min({cores, limit, model.num_bodies() / kBodiesPerThread}));
+    const int per_thread = hitch == HitchMode::OneForm ? kBodiesPerThread : kHolonomicBodiesPerThread;
+    if (limit > 1) c.threads = std::max(1, std::min({cores, limit, model.num_bodies() / per_thread}));
     return c;
   }
   if (asked == 1) return c;
   if (limit == 1) {
     c.warning = "--threads " + std::to_string(asked) + ": ran on one thread: threads split the reflection "
-                "method's step of a chain of knife edges and hitches, with --hitch oneform " +
-                std::string(reflection && !one_form && max_step_threads(model) > 1
-                                ? "(holonomic hitches are not split yet)"
-                                : "(not this run's)");
+                "method's step of a chain of knife edges and hitches (not this run's)";
     return c;
   }
   if (asked > limit)

@@ -2,6 +2,7 @@
 // How many threads one step of a run's chain uses (RunConfig::threads, `--threads`), and what
 // to say when the choice is not what was asked for.
 #include <nonholo/model.hpp>
+#include <nonholo/rattle_options.hpp>
 
 #include <string>
 
@@ -16,9 +17,9 @@ struct ThreadChoice {
 // (OMP_NUM_THREADS).
 int usable_cores();
 
-// `asked` (0: automatic) for this model and method (`one_form`: --hitch oneform, whose step is
-// the one split). Throws std::invalid_argument when the chain cannot be split so (fewer than 2
+// `asked` (0: automatic) for this model and method (`reflection`: the method whose step is
+// split; `hitch`: its hitch mode, which sets the automatic choice's threshold). Throws std::invalid_argument when the chain cannot be split so (fewer than 2
 // bodies a thread).
-ThreadChoice choose_threads(int asked, const Model& model, bool reflection, bool one_form);
+ThreadChoice choose_threads(int asked, const Model& model, bool reflection, HitchMode hitch);
 
 }  // namespace nonholo::scenarios

@@ -88,32 +88,6 @@ inline void hitch_residual(const ChainBody& cb, const double* sc, const double* 
   residual = std::max(residual, std::abs(v[1] - cb.d * sc[1] * v[2] - vn[1] - cb.f * sc[3] * vn[2]));
 }
 
-// Back substitution of body b's rows (its hitch rows unless they are the separator, whose
-// multipliers are known), the border's term taken off each (`unborder`); rows after body b+1's
-// are read only away from the chain's end, so a partition reads no other partition's rows.
-template <class Unborder>
-inline void back_substitute_body(sparse::BandedLdlt& band, int b, int n_bodies, bool separator, double* x,
-                                 const Unborder& unborder) {
-  const int r = 3 * b;
-  if (!separator && b + 1 < n_bodies) {
-    if (b + 3 < n_bodies) {
-      band.backward_interior_row<KD, 3>(r + 2, x);
-      unborder(r + 2);
-      band.backward_interior_row<KD, 4>(r + 1, x);
-    } else {
-      band.backward_row<KD>(r + 2, x);
-      unborder(r + 2);
-      band.backward_row<KD>(r + 1, x);
-    }
-    unborder(r + 1);
-  }
-  if (b + 3 < n_bodies || separator)
-    band.backward_interior_row<KD, 2>(r, x);
-  else
-    band.backward_row<KD>(r, x);
-  unborder(r);
-}
-
 // One partition's share of the step. First: partition 0, without a border (fixed at compile
 // time: the border's dead code in the plain partition's loop cost it about 30 % in the lab).
 template <bool First>
@@ -195,8 +169,8 @@ struct PartSweep {
 
   // The forward sweep over [b0, b1): sweep_hitched's, with the left separator's columns moved
   // to the border and the right separator's rows reduced to their Schur block.
-  bool forward(const State& st, double t_next) {
-    Forward fw(model, ws, st, h, t_next, false);
+  bool forward(const State& st, double t_next, bool kicked) {
+    Forward fw(model, ws, st, h, t_next, kicked);
     fw.restrict_to(b0, b1);
     fw.thrust_values = cp.thrust_values.data();
     double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *lam = fw.lam, *sc = fw.sc;
@@ -206,7 +180,7 @@ struct PartSweep {
     double gap = 0.0, border_y[2] = {0.0, 0.0};
     const PartRows rows(band, cp, j, n_bodies);
     for (int i = b0; i <= b1 + 1; ++i) {
-      if (i < b1) fw.enter(i, true);  // body i enters
+      if (i < b1) fw.enter(i, !kicked);  // body i enters (holonomic passes left its sin/cos)
       if (i > b0 && i <= b1) {  // body b = i-1 complete: p^, v^, its rows eliminated
         const int b = i - 1;
         const ChainBody& cb = body[b];
@@ -283,7 +257,6 @@ struct PartSweep {
     const double* sc = ws.chain_sincos.data();
     const double* fa = ws.applied.data();
     double *pn = ws.p_next.data(), *fn = ws.force_next.data(), *lam = ws.lambda.data();
-    const double* xs = first ? nullptr : lam + 3 * b0 - 2;  // the left separator's multipliers
     BlockSum kinetic;
     double residual = 0.0, check = 0.0, vlater[3] = {0.0, 0.0, 0.0};
     const double* forces = forced ? fa : nullptr;
@@ -294,8 +267,9 @@ struct PartSweep {
       if (b + 1 < b1) hitch_residual(cb, sc + 2 * b, v, vlater, residual);  // a separator's: after the join
       vlater[0] = v[0], vlater[1] = v[1], vlater[2] = v[2];
     };
-    auto unborder = [&](int r) {
-      if (!first) lam[r] -= lb[2 * static_cast<std::ptrdiff_t>(r)] * xs[0] + lb[2 * static_cast<std::ptrdiff_t>(r) + 1] * xs[1];
+    const Unborder border_term(cp, j, lam);
+    auto unborder = [&](double* x, int r) {
+      if (!first) border_term(x, r);  // compiled out of partition 0's loop
     };
     for (int b = b1 - 1; b >= b0; --b) {
       back_substitute_body(band, b, n_bodies, b == b1 - 1 && !last, lam, unborder);
@@ -352,7 +326,29 @@ bool factor_separators(const Model& model, Workspace& ws, double min_pivot_ratio
   return true;
 }
 
-// The separators' multipliers from their reduced right-hand sides (block.rhs) into x.
+// The step's separators: their right-hand sides from the velocities of both sides, the
+// system factorised and solved; their gaps.
+bool reduce(const Model& model, Workspace& ws, double h, double min_pivot_ratio, sparse::PivotLog& log,
+            double& gap) {
+  ChainPartitions& cp = *ws.partitions();
+  if (!factor_separators(model, ws, min_pivot_ratio, log)) return false;
+  const ChainBodies body = model.element_set()->chain_bodies();
+  const double *sc = ws.chain_sincos.data(), *pn = ws.p_next.data(), *qn = ws.q_next.data();
+  for (int j = 0; j + 1 < cp.parts; ++j) {
+    const int b = cp.first[j + 1] - 1;
+    const ChainBody &cb = body[b], &nb = body[b + 1];
+    double v[3], vn[3], rhs[2];
+    for (int k = 0; k < 3; ++k) v[k] = (&cb.wx)[k] * pn[3 * b + k], vn[k] = (&nb.wx)[k] * pn[3 * b + 3 + k];
+    hitch_rhs(cb, sc + 2 * b, v, vn, -2.0 / h, rhs);
+    hitch_gap(cb, qn + 3 * b, sc + 2 * b, gap);
+    for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = rhs[a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
+  }
+  solve_separators(cp, ws.lambda.data());
+  return true;
+}
+
+}  // namespace
+
 void solve_separators(ChainPartitions& cp, double* x) {
   const int count = cp.parts - 1;
   for (int j = 1; j < count; ++j) {  // r'_j = r_j - U_{j-1}^T D'_{j-1}^-1 r'_{j-1}
@@ -377,31 +373,8 @@ void solve_separators(ChainPartitions& cp, double* x) {
   }
 }
 
-// The step's separators: their right-hand sides from the velocities of both sides, the
-// system factorised and solved; their gaps.
-bool reduce(const Model& model, Workspace& ws, double h, double min_pivot_ratio, sparse::PivotLog& log,
-            double& gap) {
-  ChainPartitions& cp = *ws.partitions();
-  if (!factor_separators(model, ws, min_pivot_ratio, log)) return false;
-  const ChainBodies body = model.element_set()->chain_bodies();
-  const double *sc = ws.chain_sincos.data(), *pn = ws.p_next.data(), *qn = ws.q_next.data();
-  for (int j = 0; j + 1 < cp.parts; ++j) {
-    const int b = cp.first[j + 1] - 1;
-    const ChainBody &cb = body[b], &nb = body[b + 1];
-    double v[3], vn[3], rhs[2];
-    for (int k = 0; k < 3; ++k) v[k] = (&cb.wx)[k] * pn[3 * b + k], vn[k] = (&nb.wx)[k] * pn[3 * b + 3 + k];
-    hitch_rhs(cb, sc + 2 * b, v, vn, -2.0 / h, rhs);
-    hitch_gap(cb, qn + 3 * b, sc + 2 * b, gap);
-    for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = rhs[a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
-  }
-  solve_separators(cp, ws.lambda.data());
-  return true;
-}
-
-}  // namespace
-
 Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
-                            double t_next, double& check) {
+                            double t_next, bool kicked, double& check) {
   ChainPartitions& cp = *ws.partitions();
   sparse::BandedLdlt& band = *ws.banded();
   start_sweep(ws);
@@ -417,15 +390,15 @@ Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, 
   double separator_gap = 0.0;
   bool forward_ok = true, reduced_ok = true;
   // Nothing in the region throws (the thrusts were called above), so nothing escapes it.
-#pragma omp parallel num_threads(parts)
+#pragma omp parallel num_threads(ws.team())
   {
     // MXCSR is per thread and pooled workers do not inherit it: flush subnormals in each.
     const FlushSubnormals flush;
     const int team = omp_get_num_threads();  // fewer when nested or limited: partitions in turn
     bool ok = true;
     for (int j = omp_get_thread_num(); j < parts; j += team)
-      ok = (j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next)
-                   : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next)) &&
+      ok = (j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next, kicked)
+                   : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next, kicked)) &&
            ok;
     if (!ok) {
 #pragma omp atomic write
@@ -484,15 +457,9 @@ void solve_parted(const Model& model, Workspace& ws, const double* b, double* x)
   const int n_bodies = model.num_bodies(), m = model.num_one_forms();
   if (x != b)
     for (int r = 0; r < m; ++r) x[r] = b[r];
-  const double* lb = cp.border.data();
   // Forward: each partition's rows (as the sweep orders them), its partial sums for the
   // separators; then the separators.
-  for (int j = 0; j < cp.parts; ++j) {
-    const PartRows rows(band, cp, j, n_bodies);
-    double* left = cp.part[j].left_y;
-    left[0] = left[1] = 0.0;
-    for (int g = rows.b0; g < rows.b1; ++g) rows.forward(g, x, left, cp.part[j].right_y);
-  }
+  for (int j = 0; j < cp.parts; ++j) forward_partition(band, cp, j, n_bodies, x);
   for (int j = 0; j + 1 < cp.parts; ++j) {
     const int r = 3 * (cp.first[j + 1] - 1) + 1;
     for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = x[r + a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
@@ -500,13 +467,9 @@ void solve_parted(const Model& model, Workspace& ws, const double* b, double* x)
   solve_separators(cp, x);
   // Backward, partition by partition (the separators' x known).
   for (int j = 0; j < cp.parts; ++j) {
-    const int b0 = cp.first[j], b1 = cp.first[j + 1];
-    const bool first = j == 0, last = j + 1 == cp.parts;
-    const double* xs = first ? nullptr : x + 3 * b0 - 2;
-    auto unborder = [&](int r) {
-      if (!first) x[r] -= lb[2 * static_cast<std::ptrdiff_t>(r)] * xs[0] + lb[2 * static_cast<std::ptrdiff_t>(r) + 1] * xs[1];
-    };
-    for (int g = b1 - 1; g >= b0; --g) back_substitute_body(band, g, n_bodies, g == b1 - 1 && !last, x, unborder);
+    const Unborder unborder(cp, j, x);
+    for (int g = cp.first[j + 1] - 1; g >= cp.first[j]; --g)
+      back_substitute_body(band, g, n_bodies, g == cp.first[j + 1] - 1 && j + 1 < cp.parts, x, unborder);
   }
 }
 

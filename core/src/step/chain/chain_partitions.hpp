@@ -43,6 +43,9 @@ struct ChainPartitions {
     // The mode's measurement (chain_partitions_measure.cpp): |y|^2_D over its rows, |p_-|^2 and
     // the kicks in M^-1 over its bodies, and the right separator's rows of r.
     double mode = 0.0, arriving = 0.0, kicks = 0.0, right_r[2] = {};
+    // Holonomic mode's passes (chain_partitions_passes.cpp): the largest |gap| of its own
+    // hitches and the largest |q_next| of its bodies.
+    double worst = 0.0, largest = 0.0;
   };
   std::vector<Part> part;
 
@@ -116,14 +119,74 @@ struct PartRows {
   }
 };
 
-// The one-form step of the common chain (chain_sweep.cpp's sweep_hitched, not kicked) on
-// ws.partitions()'s threads; the factorisation it leaves is partitioned (Workspace::solve
-// solves with it). Bitwise the same for the same partitions, whatever threads run them.
+// Partition j's forward substitution of x (PartRows' order), its partial sums for the
+// separators in part[j].left_y and right_y.
+inline void forward_partition(sparse::BandedLdlt& band, ChainPartitions& cp, int j, int n_bodies, double* x) {
+  const PartRows rows(band, cp, j, n_bodies);
+  double* left = cp.part[j].left_y;
+  left[0] = left[1] = 0.0;
+  for (int g = rows.b0; g < rows.b1; ++g) rows.forward(g, x, left, cp.part[j].right_y);
+}
+
+// The border's term taken off row r of partition j in a back substitution (nothing on the
+// first partition), the left separator's x known.
+struct Unborder {
+  const double* lb;
+  const double* xs;  // the left separator's x (null: partition 0)
+  Unborder(const ChainPartitions& cp, int j, const double* x)
+      : lb(cp.border.data()), xs(j == 0 ? nullptr : x + 3 * cp.first[j] - 2) {}
+  void operator()(double* x, int r) const {
+    if (xs) x[r] -= lb[2 * static_cast<std::ptrdiff_t>(r)] * xs[0] + lb[2 * static_cast<std::ptrdiff_t>(r) + 1] * xs[1];
+  }
+};
+
+// Back substitution of body b's rows (its hitch rows unless they are the separator, whose
+// multipliers are known), the border's term taken off each (`unborder`); rows after body b+1's
+// are read only away from the chain's end, so a partition reads no other partition's rows.
+// (U: Unborder, or a callable that skips it where the partition is known to be the first.)
+template <class U = Unborder>
+inline void back_substitute_body(sparse::BandedLdlt& band, int b, int n_bodies, bool separator, double* x,
+                                 const U& unborder) {
+  const int r = 3 * b;
+  if (!separator && b + 1 < n_bodies) {
+    if (b + 3 < n_bodies) {
+      band.backward_interior_row<kChainBandwidth, 3>(r + 2, x);
+      unborder(x, r + 2);
+      band.backward_interior_row<kChainBandwidth, 4>(r + 1, x);
+    } else {
+      band.backward_row<kChainBandwidth>(r + 2, x);
+      unborder(x, r + 2);
+      band.backward_row<kChainBandwidth>(r + 1, x);
+    }
+    unborder(x, r + 1);
+  }
+  if (b + 3 < n_bodies || separator)
+    band.backward_interior_row<kChainBandwidth, 2>(r, x);
+  else
+    band.backward_row<kChainBandwidth>(r, x);
+  unborder(x, r);
+}
+
+// The separators' multipliers from their reduced right-hand sides (block.rhs) into x.
+void solve_separators(ChainPartitions& cp, double* x);
+
+// The step of the common chain (chain_sweep.cpp's sweep_hitched; `kicked`: after holonomic
+// mode's passes) on ws.partitions()'s threads; the factorisation it leaves is partitioned
+// (Workspace::solve and the next step's passes solve with it). Bitwise the same for the same
+// partitions, whatever threads run them.
 Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
-                            double t_next, double& check);
+                            double t_next, bool kicked, double& check);
 
 // x = C^-1 b with the factorisation a partitioned step left (x may be b).
 void solve_parted(const Model& model, Workspace& ws, const double* b, double* x);
+
+// Holonomic mode's passes (chain_passes.cpp's, chain_sweep.hpp) with the partitioned
+// factorisation of C(q_k) a partitioned step left, on its threads (chain_partitions_passes.cpp).
+// The separators' gaps, whose bodies two partitions move, are taken on the calling thread.
+double chain_gap_forward_parted(const Model& model, Workspace& ws, const State& st, double h, double scale, double* y,
+                                double& size);
+void chain_forward_substitute_parted(Workspace& ws, double* y);
+double chain_correct_backward_parted(const Model& model, Workspace& ws, double* x, double h, double scale);
 
 // chain_measure (chain_sweep.hpp) after a partitioned step, on its threads and with its
 // factorisation (chain_partitions_measure.cpp): |d|_C^2 = r^T C^-1 r from the partitions' forward

@@ -88,7 +88,7 @@ Status chain_measure_parted(const Model& model, Workspace& ws, const double* p, 
   ChainPartitions& cp = *ws.partitions();
   const int parts = cp.parts;
   ChainPartitions::Part* out = cp.part.data();
-#pragma omp parallel num_threads(parts)
+#pragma omp parallel num_threads(ws.team())
   {
     const FlushSubnormals flush;
     const int team = omp_get_num_threads();

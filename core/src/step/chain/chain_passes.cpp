@@ -5,7 +5,9 @@
 #include <cmath>
 
 #include "model/element_set.hpp"
+#include "step/chain/chain_partitions.hpp"
 #include "step/chain/chain_rows.hpp"
+#include "step/chain/gap_rows.hpp"
 #include "step/chain/chain_sweep.hpp"
 
 namespace nonholo::detail {
@@ -104,21 +106,11 @@ inline void backward_hitched(sparse::BandedLdlt& band, int r, int m, double* x) 
     band.backward_row<4>(r, x);
 }
 
-// The hitch of body b at q (sin/cos of b and b+1 in sc): its gap (x, y).
-inline void hitch_gap(const ChainBody& cb, const double* a, const double* sc, double& gx, double& gy) {
-  gx = a[0] - cb.d * sc[1] - a[3] - cb.f * sc[3];
-  gy = a[1] - cb.d * sc[0] - a[4] - cb.f * sc[2];
-}
-
-inline void track_worst(double gx, double gy, double& worst) {
-  worst = std::max(worst, std::max(std::abs(gx), std::abs(gy)));
-  if (!(gx == gx && gy == gy)) worst = gx + gy;  // NaN wins
-}
-
 }  // namespace
 
 double chain_gap_forward(const Model& model, Workspace& ws, const State& st, double h, double scale, double* y,
                          double& size) {
+  if (ws.factor_parted()) return chain_gap_forward_parted(model, ws, st, h, scale, y, size);
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   const ElementSet& set = *model.element_set();
   const ChainBodies body = set.chain_bodies();
@@ -130,23 +122,12 @@ double chain_gap_forward(const Model& model, Workspace& ws, const State& st, dou
   ws.forget_sincos();  // they are q_{k+1}'s from here on
   double* sc = ws.chain_sincos.data();
   double worst = 0.0, largest = 0.0;
-  const double half = 0.5 * h;
-  // Half kick with the forces at t_k and drift of body b, as rattle.cpp's kick_drift.
-  auto kick_drift = [&](int b) {
-    const double* w = &body[b].wx;  // wx, wy, wt are consecutive
-    for (int c = 0; c < 3; ++c) {
-      const int i = 3 * b + c;
-      ph[i] = p[i] + half * force[i];
-      qn[i] = q[i] + h * (w[c] * ph[i]);
-      largest = std::max(largest, std::abs(qn[i]));
-    }
-    sin_cos(qn[3 * b + 2], sc + 2 * b);
-  };
+  auto kick_drift = [&](int b) { kick_drift_body(body, b, q, p, force, h, ph, qn, sc, largest); };
   kick_drift(0);
   for (int b = 0; b + 1 < n_bodies; ++b) {
     kick_drift(b + 1);
     double gx, gy;
-    hitch_gap(body[b], qn + 3 * b, sc + 2 * b, gx, gy);
+    hitch_gap_xy(body[b], qn + 3 * b, sc + 2 * b, gx, gy);
     track_worst(gx, gy, worst);
     const int r = 3 * b;
     y[r] = 0.0;
@@ -164,6 +145,7 @@ double chain_gap_forward(const Model& model, Workspace& ws, const State& st, dou
 }
 
 void chain_forward_substitute(Workspace& ws, double* y) {
+  if (ws.factor_parted()) return chain_forward_substitute_parted(ws, y);
   sparse::BandedLdlt& band = *ws.banded();
   const int m = band.size();
   for (int r = 0; r < m; r += 3) {
@@ -176,6 +158,7 @@ void chain_forward_substitute(Workspace& ws, double* y) {
 }
 
 double chain_correct_backward(const Model& model, Workspace& ws, double* x, double h, double scale) {
+  if (ws.factor_parted()) return chain_correct_backward_parted(model, ws, x, h, scale);
   const FlushSubnormals flush(model.num_bodies() >= kFlushSubnormalsFrom);
   const ElementSet& set = *model.element_set();
   const ChainBodies body = set.chain_bodies();
@@ -186,33 +169,6 @@ double chain_correct_backward(const Model& model, Workspace& ws, double* x, doub
   double* ph = ws.p_half.data();
   double* qn = ws.q_next.data();
   double* sc = ws.chain_sincos.data();
-  const double half = 0.5 * h, drift = 0.5 * h * h;
-  // p_half += (h/2) mu_k^T dlambda and q_next += (h^2/2) M^-1 mu_k^T dlambda on body b, from
-  // its knife edge [s, -c, a] and hitch rows [1, d s | ...], [1, -d c | ...] and the previous
-  // hitch's [... | -1, f s], [... | -1, -f c] (group_rows' values, in the same operations).
-  auto correct = [&](int b) {
-    const ChainBody& cb = body[b];
-    const double s = so[2 * b], c = so[2 * b + 1];
-    const double lk = x[3 * b];
-    double g[3] = {s * lk, -c * lk, cb.a * lk};
-    if (b + 1 < n_bodies) {
-      const double lx = x[3 * b + 1], ly = x[3 * b + 2];
-      g[0] += lx;
-      g[1] += ly;
-      g[2] += (cb.d * s) * lx + (-cb.d * c) * ly;
-    }
-    if (b > 0) {
-      const double f = body[b - 1].f;
-      const double px = x[3 * b - 2], py = x[3 * b - 1];
-      g[0] -= px;
-      g[1] -= py;
-      g[2] += (f * s) * px + (-f * c) * py;
-    }
-    for (int k = 0; k < 3; ++k) {
-      ph[3 * b + k] += half * g[k];
-      qn[3 * b + k] += drift * (&cb.wx)[k] * g[k];
-    }
-  };
   double worst = 0.0;
   backward_hitched<2>(band, m - 1, m, x);  // the last body's knife edge
   for (int b = n_bodies - 2; b >= -1; --b) {
@@ -222,20 +178,9 @@ double chain_correct_backward(const Model& model, Workspace& ws, double* x, doub
       backward_hitched<4>(band, r + 1, m, x);
       backward_hitched<2>(band, r, m, x);
     }
-    // Body c = b+1 has all its multipliers (groups c and b): corrected, then the hitch from it
-    // (to c+1, corrected before) gives the next right-hand side in place of group c's
-    // dlambda, which no substitution reads any more.
+    // Body c = b+1 has all its multipliers (groups c and b).
     const int c = b + 1;
-    correct(c);
-    sin_cos(qn[3 * c + 2], sc + 2 * c);
-    x[3 * c] = 0.0;
-    if (c + 1 < n_bodies) {
-      double gx, gy;
-      hitch_gap(body[c], qn + 3 * c, sc + 2 * c, gx, gy);
-      track_worst(gx, gy, worst);
-      x[3 * c + 1] = scale * gx;
-      x[3 * c + 2] = scale * gy;
-    }
+    correct_and_measure(body, c, c + 1 < n_bodies, so, h, scale, ph, qn, sc, x, worst);
   }
   return worst;
 }

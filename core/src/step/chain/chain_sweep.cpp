@@ -328,7 +328,7 @@ Status chain_sweep(const Model& model, Workspace& ws, const State& st, const Rat
     return model.has_applied_force() ? sweep_knives<true>(model, ws, st, o, h, t_next, check)
                                      : sweep_knives<false>(model, ws, st, o, h, t_next, check);
   if (model.element_set()->hitched_chain) {  // kd = 4
-    if (ws.partitions() && !kicked) return sweep_hitched_parted(model, ws, st, o, h, t_next, check);
+    if (ws.partitions()) return sweep_hitched_parted(model, ws, st, o, h, t_next, kicked, check);
     return sweep_hitched(model, ws, st, o, h, t_next, kicked, check);
   }
   switch (ws.banded()->bandwidth()) {  // chains: 4 (knife edges and hitches), 0 (knife edges only)

@@ -79,8 +79,9 @@ inline void start_sweep(Workspace& ws) {
 // i-1's applied force is complete).
 // On a partition [lo, hi) of the bodies (chain_partitions.cpp) a spring across its ends is
 // computed by both sides from the drifted angle of the other side's body (the same arithmetic
-// as that body's own drift, so the same bits), each writing only its own body's torque; the
-// potential is counted by the partition on the right.
+// as that body's own drift, so the same bits; `kicked`: holonomic mode's passes drifted every
+// body before), each writing only its own body's torque; the potential is counted by the
+// partition on the right.
 struct Forward {
   const ElementSet& set;
   const ChainBodies body;
@@ -172,7 +173,8 @@ struct Forward {
     }
     if (i > 0 && body[i - 1].k != 0.0) {  // springs between i-1 and i, D = theta_{i-1} - theta_i
       const ChainBody& sb = body[i - 1];
-      const double before = i == lo ? drifted_angle(i - 1) : qn[3 * i - 1];  // another partition's body
+      // Another partition's body, not drifted yet unless holonomic mode's passes drifted all.
+      const double before = i == lo && !was_kicked ? drifted_angle(i - 1) : qn[3 * i - 1];
       const double now = before - qi[2], old = q[3 * i - 1] - q[3 * i + 2];
       const double torque = sb.k * now - sb.kr;  // dV/dD
       if (i != lo) fa[3 * i - 1] -= torque;
@@ -181,7 +183,7 @@ struct Forward {
       potential_old += 0.5 * (sb.k * old * old + sb.krr) - sb.kr * old;
     }
     if (i + 1 == hi && hi < body.size() && b.k != 0.0)  // the spring to the next partition's first body
-      f[2] -= b.k * (qi[2] - drifted_angle(i + 1)) - b.kr;
+      f[2] -= b.k * (qi[2] - (was_kicked ? qn[3 * (i + 1) + 2] : drifted_angle(i + 1))) - b.kr;
   }
 };
 

@@ -33,11 +33,15 @@ class FrameSink {
   virtual bool stop_requested() { return false; }
 };
 
-/// RunConfig::threads = 0 gives a chain a thread per this many bodies, up to the usable cores:
-/// fewer bodies a thread and the threads' synchronisation at every step costs more than they
-/// save (measured on a 2-core AMD EPYC, default options: 2 threads 1.15 times faster than one
-/// at 1000 bodies, 1.44 at 10^4, docs/results/threads.md).
+/// RunConfig::threads = 0 gives a chain with one-form hitches a thread per this many bodies, up
+/// to the usable cores: fewer bodies a thread and the threads' synchronisation at every step
+/// costs more than they save (measured on a 2-core AMD EPYC, default options: 2 threads 1.15
+/// times faster than one at 1000 bodies, 1.44 at 10^4, docs/results/threads.md).
 inline constexpr int kBodiesPerThread = 500;
+/// ... and with holonomic hitches, whose step meets its threads three times more (the gap
+/// corrections' passes): on the same machine 2 threads were 1.1-1.2 times slower than one at
+/// 1000 bodies, even at 2000 and 4000, 1.1-1.45 times faster at 10^4.
+inline constexpr int kHolonomicBodiesPerThread = 5000;
 
 /// The options of `nonholo run` (run_scene()).
 struct RunConfig {
@@ -54,8 +58,8 @@ struct RunConfig {
   sparse::Backend backend = sparse::Backend::Auto;  ///< the factorisation of C (`--backend`)
   /// Threads for one step of the chain (`--threads`, WorkspaceOptions::threads; reflection
   /// method): 0 picks them: for a chain of knife edges and hitches a thread per
-  /// kBodiesPerThread bodies, up to the cores the process may use, else 1. A batch runs each
-  /// trajectory on one.
+  /// kBodiesPerThread bodies (kHolonomicBodiesPerThread with holonomic hitches), up to the cores
+  /// the process may use, else 1. A batch runs each trajectory on one.
   int threads = 0;
   HitchMode hitch = HitchMode::Holonomic;  ///< reflection: how hitches are kept (`--hitch`)
   std::string restart = "auto";  ///< see set_restart (restart_options.hpp): auto, 0 or K
@@ -156,6 +160,9 @@ struct RunSummary {
   double energy_balance_err_max = 0.0;
   ///@}
   std::string warning;  ///< what the user should know about a run that ended ok
+  /// What the clock showed about the chain's threads: empty, or that one thread ran its steps
+  /// faster and for how many it did (the same results). Like wall_s, not repeatable.
+  std::string threads_note;
   long rhs_evaluations = -1;  ///< reference methods: evaluations of the equations
   /// Adaptive composed steps (RunConfig::adaptive): the tolerance, the accepted composed steps
   /// and the rejected pairs (-1: fixed steps). steps counts the output intervals then.
