@@ -247,7 +247,7 @@ void restart_sizes(benchmark::internal::Benchmark* b) {
 // (bodies, threads): 1, 2, 4, ... up to the processors present, and their number.
 void thread_sizes(benchmark::internal::Benchmark* b) {
   const int cores = omp_get_num_procs();
-  for (long n : {1000L, 10000L, 100000L, 1000000L}) {
+  for (long n : {100L, 300L, 1000L, 10000L, 100000L, 1000000L}) {  // from below the break-even
     for (int p = 1; p < cores; p *= 2) b->Args({n, p});
     b->Args({n, cores});
   }

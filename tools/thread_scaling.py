@@ -2,7 +2,7 @@
 """One chain on several threads (issue 34): runs benchmarks/bench_chain's
 ChainStep_OneForm_Threads (default options: the period-2 mode measured, restarts as they come),
 ChainStep_OneForm_Plain_Threads (the bare step) and ChainStep_Holonomic_Threads (holonomic
-hitches, default options: the gap corrections' passes too) for N = 10^3 ... 10^6 bodies and
+hitches, default options: the gap corrections' passes too) for N = 10^2 ... 10^6 bodies and
 P = 1, 2, 4, ... threads up to the processors present, then writes a strong-scaling table
 (ns per body-step, speed-up against P = 1 in the same run) and a plot.
 
@@ -44,6 +44,23 @@ def load(path):
     return data.get("context", {}), table
 
 
+def break_even(cells, sizes):
+    """Where 2 threads start to pay: the N at which the speed-up crosses 1, interpolated in
+    log N between the measured sizes."""
+    points = [(n, cells[(n, 1)] / cells[(n, 2)]) for n in sizes if (n, 1) in cells and (n, 2) in cells]
+    if not points:
+        return "Break-even: not measured (no P = 2)."
+    if points[0][1] >= 1.0:
+        return "Break-even: 2 threads already pay at N = %d (%.2f×), the smallest size measured." % points[0]
+    for (n0, s0), (n1, s1) in zip(points, points[1:]):
+        if s0 < 1.0 <= s1:
+            import math
+            x = math.log(n0) + (math.log(n1) - math.log(n0)) * (1.0 - s0) / (s1 - s0)
+            return "Break-even: 2 threads pay from about N = %d (%.2f× at %d, %.2f× at %d)." % (
+                round(math.exp(x), -2), s0, n0, s1, n1)
+    return "Break-even: 2 threads did not pay up to N = %d (%.2f×)." % points[-1]
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bench", default=os.path.join(ROOT, "build", "benchmarks", "bench_chain"))
@@ -74,7 +91,7 @@ def main():
                 x = cells.get((n, p))
                 row.append("" if x is None else "%.1f" % x if one is None or p == 1 else "%.1f (%.2f×)" % (x, one / x))
             lines.append("| %d | " % n + " | ".join(row) + " |")
-        lines.append("")
+        lines += ["", break_even(cells, sizes), ""]
     lines.append("Minimum of %d repetitions; %s, %s CPUs at %s MHz (%s)." % (
         args.repetitions, context.get("date", "?"), context.get("num_cpus", "?"), context.get("mhz_per_cpu", "?"),
         context.get("host_name", "?")))

@@ -18,23 +18,28 @@ void TeamProbe::set(int team) {
   set_team_(team);
 }
 
-// A cycle: a block on the run's threads, a block on one, kProbeEvery blocks on the faster.
-void TeamProbe::before_step() {
+// A cycle: a block on the run's threads, a block on one, kProbeEvery blocks on the faster
+// (per timed step).
+void TeamProbe::before_step(long step) {
   if (threads_ == 1) return;
+  if (first_step_ < 0) first_step_ = step;
+  step_ = step;
   const long i = count_ - kWarmUp;
   if (i < 0) return;
   const long at = i % ((2 + kProbeEvery) * kBlock);
   if (at == 0) {
     many_ = one_ = 0.0;
+    many_count_ = one_count_ = 0;
     set(threads_);
   } else if (at == kBlock) {
     set(1);
   } else if (at == 2 * kBlock) {
-    if (one_ < many_) {
-      if (first_fallback_ < 0) first_fallback_ = count_;
-      if (many_ / one_ > slowdown_) {
-        slowdown_ = many_ / one_;
-        many_step_ = many_ / kBlock, one_step_ = one_ / kBlock;
+    const double many = many_count_ > 0 ? many_ / many_count_ : 0.0, one = one_count_ > 0 ? one_ / one_count_ : 0.0;
+    if (many_count_ > 0 && one_count_ > 0 && one < many) {
+      if (first_fallback_ < 0) first_fallback_ = step;
+      if (many / one > slowdown_) {
+        slowdown_ = many / one;
+        many_step_ = many, one_step_ = one;
       }
       set(1);
     } else {
@@ -44,28 +49,31 @@ void TeamProbe::before_step() {
   start_ = clock_();
 }
 
-void TeamProbe::after_step() {
+void TeamProbe::after_step(bool timed) {
   if (threads_ == 1) return;
   const long i = count_++ - kWarmUp;
   if (i < 0) return;
   const double elapsed = clock_() - start_;
   const long at = i % ((2 + kProbeEvery) * kBlock);
-  if (at < kBlock)
-    many_ += elapsed;
-  else if (at < 2 * kBlock)
-    one_ += elapsed;
-  else if (team_ == 1)
+  if (at < kBlock) {
+    if (timed) many_ += elapsed, ++many_count_;
+  } else if (at < 2 * kBlock) {
+    if (timed) one_ += elapsed, ++one_count_;
+  } else if (team_ == 1) {
     ++steps_on_one_;
+  }
 }
 
-std::string TeamProbe::note(long steps) const {
+std::string TeamProbe::note() const {
   if (first_fallback_ < 0) return "";
-  char line[400];
+  char since[80] = "";
+  if (first_step_ > 1) std::snprintf(since, sizeof since, " since the resume at step %ld", first_step_);
+  char line[480];
   std::snprintf(line, sizeof line,
                 "the chain's %d threads ran a step slower than one thread (%.3g against %.3g ms: the cores are "
                 "busy, or the chain is too short for them), first at step %ld; its %d partitions ran on one "
-                "thread for %ld of %ld steps (the same results, bit for bit)",
-                threads_, 1e3 * many_step_, 1e3 * one_step_, first_fallback_ + 1, threads_, steps_on_one_, steps);
+                "thread for %ld of the %ld steps%s (the same results, bit for bit)",
+                threads_, 1e3 * many_step_, 1e3 * one_step_, first_fallback_, threads_, steps_on_one_, count_, since);
   return line;
 }
 

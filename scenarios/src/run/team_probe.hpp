@@ -21,21 +21,26 @@ class TeamProbe {
   // them; `clock`: the steady clock unless a test gives its own.
   TeamProbe(int threads, std::function<void(int)> set_team, Clock clock = {});
 
-  void before_step();
-  void after_step();  // of a step that succeeded
+  // `step`: the run's number of the step about to run (1, 2, ...; a resumed run's continue).
+  void before_step(long step);
+  // Of a step that succeeded; `timed`: its time is the step's alone (not a step that also ran
+  // the accuracy check's shadow step, which would weigh on one block and not the other).
+  void after_step(bool timed = true);
 
   int team() const { return team_; }
   long steps_on_one() const { return steps_on_one_; }  // steps run on one thread after a probe chose it
   // Empty, or what the summary says when one thread was faster (RunSummary::threads_note).
-  std::string note(long steps) const;
+  std::string note() const;
 
  private:
   int threads_, team_;
   std::function<void(int)> set_team_;
   Clock clock_;
   long count_ = 0;     // steps seen
+  long first_step_ = -1, step_ = 0;  // the first step seen (a resumed run's is not 1), the current
   double start_ = 0.0;
-  double many_ = 0.0, one_ = 0.0;  // this probe's block times
+  double many_ = 0.0, one_ = 0.0;  // this probe's timed steps' times on each team, and their number
+  int many_count_ = 0, one_count_ = 0;
   long first_fallback_ = -1, steps_on_one_ = 0;
   double slowdown_ = 0.0;  // the largest ratio (P threads / one) a probe measured when it fell back
   double many_step_ = 0.0, one_step_ = 0.0;  // that probe's times per step

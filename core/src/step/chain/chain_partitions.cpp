@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "step/chain/chain_sweep.hpp"
+#include "step/chain/hitched_band_rows.hpp"
 
 namespace nonholo::detail {
 
@@ -16,77 +17,42 @@ namespace {
 
 constexpr int KD = kChainBandwidth;
 
-// A partition with a border (every one but the first) costs about 1.5 times a plain one per
-// body (measured in the lab prototype, ../shared/lab/chain_threads: 1.55 on a 2-core AMD EPYC).
+// A partition with a border (every one but the first and the last) costs about 1.5 times a
+// plain one per body (measured in the lab prototype, ../shared/lab/chain_threads: 1.55 on a 2-core AMD EPYC).
 constexpr double kPlainWeight = 1.5;
 
 }  // namespace
 
 ChainPartitions::ChainPartitions(int bodies, int count, int thrusts) : parts(count) {
+  // Plain partitions (the first; the last, from the tail) take kPlainWeight times a bordered
+  // one's bodies.
+  std::vector<double> weight(parts, 1.0);
+  weight.front() = weight.back() = kPlainWeight;
+  double total = 0.0, acc = 0.0;
+  for (double w : weight) total += w;
   first.assign(parts + 1, 0);
-  double total = kPlainWeight + (parts - 1), acc = 0.0;
   for (int j = 1; j < parts; ++j) {
-    acc += j == 1 ? kPlainWeight : 1.0;
+    acc += weight[j - 1];
     first[j] = static_cast<int>(std::lround(bodies * acc / total));
   }
   first[parts] = bodies;
   for (int j = 1; j < parts; ++j)  // at least 2 bodies each (bodies >= 2 parts)
     first[j] = std::max(first[j], first[j - 1] + 2);
   for (int j = parts - 1; j >= 1; --j) first[j] = std::min(first[j], first[j + 1] - 2);
-  border.assign(2 * static_cast<std::size_t>(std::max(3 * bodies - 2, 0)), 0.0);
+  // Only the bordered partitions' rows, all before the tail's, have border entries.
+  tail_first = parts > 1 ? first[parts - 1] : bodies;
+  border.assign(parts > 2 ? 2 * static_cast<std::size_t>(3 * tail_first) : 0, 0.0);
+  if (parts > 1) {
+    const int n = bodies - tail_first;
+    tail = std::make_unique<sparse::BandedLdlt>(3 * n, kChainBandwidth);
+    tail_x.assign(3 * static_cast<std::size_t>(n), 0.0);
+  }
   part.assign(parts, Part{});
   thrust_values.assign(2 * static_cast<std::size_t>(thrusts), 0.0);
   block.assign(std::max(parts - 1, 0), Block{});
 }
 
 namespace {
-
-// The closed forms of sweep_hitched (chain_sweep.cpp): the knife row of body b, and the hitch
-// rows b -> b+1 (`next` null: only the entries on body b's rows, as a separator's own rows
-// see them from its partition).
-inline void knife_band_row(const ChainBody& cb, double s, double c, double fp, double* row) {
-  const double wx = cb.wx, wy = cb.wy, wt = cb.wt, a = cb.a;
-  row[0] = row[1] = 0.0;
-  row[2] = -wx * s + wt * a * fp * s;
-  row[3] = wy * c - wt * a * fp * c;
-  row[4] = wx * s * s + wy * c * c + wt * a * a;
-}
-inline void hitch_band_rows(const ChainBody& cb, const ChainBody* next, double s, double c, double sn, double cn,
-                            double fp, double* rx, double* ry) {
-  const double wx = cb.wx, wy = cb.wy, wt = cb.wt, a = cb.a, d = cb.d, f = cb.f;
-  const double wtd = wt * d;
-  rx[0] = 0.0;
-  rx[1] = -wx + wtd * fp * s * s;
-  rx[2] = -wtd * fp * s * c;
-  rx[3] = wx * s + wtd * a * s;
-  ry[0] = -wtd * fp * s * c;
-  ry[1] = -wy + wtd * fp * c * c;
-  ry[2] = -wy * c - wtd * a * c;
-  if (next) {
-    const double wtnf = next->wt * f;
-    rx[4] = wx + wtd * d * s * s + next->wx + wtnf * f * sn * sn;
-    ry[3] = -wtd * d * s * c - wtnf * f * sn * cn;
-    ry[4] = wy + wtd * d * c * c + next->wy + wtnf * f * cn * cn;
-  } else {
-    rx[4] = ry[3] = ry[4] = 0.0;
-  }
-}
-// The hitch b -> b+1's right-hand side -(2/h) mu v^ (v: body b, vn: body b+1).
-inline void hitch_rhs(const ChainBody& cb, const double* sc, const double* v, const double* vn, double scale,
-                      double* out) {
-  const double s = sc[0], c = sc[1], sn = sc[2], cn = sc[3];
-  out[0] = scale * (v[0] + cb.d * s * v[2] - vn[0] + cb.f * sn * vn[2]);
-  out[1] = scale * (v[1] - cb.d * c * v[2] - vn[1] - cb.f * cn * vn[2]);
-}
-inline void hitch_gap(const ChainBody& cb, const double* qb, const double* sc, double& gap) {
-  gap = std::max(gap, std::abs(qb[0] - cb.d * sc[1] - qb[3] - cb.f * sc[3]));
-  gap = std::max(gap, std::abs(qb[1] - cb.d * sc[0] - qb[4] - cb.f * sc[2]));
-}
-inline void hitch_residual(const ChainBody& cb, const double* sc, const double* v, const double* vn,
-                           double& residual) {
-  residual = std::max(residual, std::abs(v[0] + cb.d * sc[0] * v[2] - vn[0] + cb.f * sc[2] * vn[2]));
-  residual = std::max(residual, std::abs(v[1] - cb.d * sc[1] * v[2] - vn[1] - cb.f * sc[3] * vn[2]));
-}
 
 // One partition's share of the step. First: partition 0, without a border (fixed at compile
 // time: the border's dead code in the plain partition's loop cost it about 30 % in the lab).
@@ -141,28 +107,14 @@ struct PartSweep {
   // three rows r-2, r-1, r (r = 3b): their L in the separator's band rows, their Schur block in
   // right_schur, and with the left border the block between the two separators in cross.
   void separator_rows(int r, double* rx, double* ry) {
-    double wx[3], wy[3], lx[3], ly[3];
-    for (int t = 0; t < 3; ++t) {
-      const double* l = band.row(r - 2 + t);
-      double ax = rx[t + 1], ay = ry[t];
-      for (int u = 0; u < t; ++u) {
-        ax -= wx[u] * l[KD - (t - u)];
-        ay -= wy[u] * l[KD - (t - u)];
-      }
-      wx[t] = ax, wy[t] = ay;
-      lx[t] = ax * l[KD], ly[t] = ay * l[KD];
-      rx[t + 1] = lx[t], ry[t] = ly[t];
-    }
-    double* T = out.right_schur;
-    T[0] = T[1] = T[2] = 0.0;
+    double wx[3], wy[3];
+    detail::separator_rows(band, r, rx, ry, out.right_schur, wx, wy);
     double X[2][2] = {{0.0, 0.0}, {0.0, 0.0}};
-    for (int t = 0; t < 3; ++t) {
-      T[0] += wx[t] * lx[t], T[1] += wx[t] * ly[t], T[2] += wy[t] * ly[t];
-      if (!first) {
+    if (!first)
+      for (int t = 0; t < 3; ++t) {
         const double* l = lb + 2 * static_cast<std::ptrdiff_t>(r - 2 + t);
         X[0][0] += l[0] * wx[t], X[0][1] += l[0] * wy[t], X[1][0] += l[1] * wx[t], X[1][1] += l[1] * wy[t];
       }
-    }
     for (int a = 0; a < 2; ++a)
       for (int e = 0; e < 2; ++e) out.cross[a][e] = X[a][e];
   }
@@ -397,8 +349,9 @@ Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, 
     const int team = omp_get_num_threads();  // fewer when nested or limited: partitions in turn
     bool ok = true;
     for (int j = omp_get_thread_num(); j < parts; j += team)
-      ok = (j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next, kicked)
-                   : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next, kicked)) &&
+      ok = (j == 0            ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next, kicked)
+            : is_tail(cp, j) ? tail_sweep_forward(model, ws, st, h, t_next, kicked, o.min_pivot_ratio)
+                              : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next, kicked)) &&
            ok;
     if (!ok) {
 #pragma omp atomic write
@@ -410,9 +363,14 @@ Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, 
       if (forward_ok) reduced_ok = reduce(model, ws, h, o.min_pivot_ratio, separators, separator_gap);
     }
     if (forward_ok && reduced_ok)
-      for (int j = omp_get_thread_num(); j < parts; j += team)
-        j == 0 ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).backward()
-               : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).backward();
+      for (int j = omp_get_thread_num(); j < parts; j += team) {
+        if (j == 0)
+          PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).backward();
+        else if (is_tail(cp, j))
+          tail_sweep_backward(model, ws, h);
+        else
+          PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).backward();
+      }
   }
   // The partitions' pivot tests in row order, then the separators'.
   for (const auto& part : cp.part) band.merge_pivots(part.pivots);
@@ -454,22 +412,26 @@ Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, 
 void solve_parted(const Model& model, Workspace& ws, const double* b, double* x) {
   ChainPartitions& cp = *ws.partitions();
   sparse::BandedLdlt& band = *ws.banded();
-  const int n_bodies = model.num_bodies(), m = model.num_one_forms();
+  const int n_bodies = model.num_bodies(), m = model.num_one_forms(), parts = cp.parts;
   if (x != b)
     for (int r = 0; r < m; ++r) x[r] = b[r];
-  // Forward: each partition's rows (as the sweep orders them), its partial sums for the
-  // separators; then the separators.
-  for (int j = 0; j < cp.parts; ++j) forward_partition(band, cp, j, n_bodies, x);
-  for (int j = 0; j + 1 < cp.parts; ++j) {
-    const int r = 3 * (cp.first[j + 1] - 1) + 1;
-    for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = x[r + a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
-  }
-  solve_separators(cp, x);
-  // Backward, partition by partition (the separators' x known).
-  for (int j = 0; j < cp.parts; ++j) {
-    const Unborder unborder(cp, j, x);
-    for (int g = cp.first[j + 1] - 1; g >= cp.first[j]; --g)
-      back_substitute_body(band, g, n_bodies, g == cp.first[j + 1] - 1 && j + 1 < cp.parts, x, unborder);
+  // Each partition's forward substitution (as the sweep orders its rows) and its partial sums
+  // for the separators; the separators on one thread; each partition's back substitution.
+#pragma omp parallel num_threads(ws.team())
+  {
+    const FlushSubnormals flush;
+    const int team = omp_get_num_threads();
+    for (int j = omp_get_thread_num(); j < parts; j += team) forward_partition(band, cp, j, n_bodies, x);
+#pragma omp barrier
+#pragma omp single
+    {
+      for (int j = 0; j + 1 < parts; ++j) {
+        const int r = 3 * (cp.first[j + 1] - 1) + 1;
+        for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = x[r + a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
+      }
+      solve_separators(cp, x);
+    }
+    for (int j = omp_get_thread_num(); j < parts; j += team) backward_partition(band, cp, j, n_bodies, x);
   }
 }
 

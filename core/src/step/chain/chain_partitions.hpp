@@ -5,9 +5,12 @@
 // next partition, is the separator s_j. Each thread factorises its partition's other rows in
 // the band (natural order, as on one thread); the rows of the partition's left separator are
 // carried as a border (their L against each of its rows, 2 per row); the separators' Schur
-// complement, block tridiagonal with 2x2 blocks, is factorised by one thread.
+// complement, block tridiagonal with 2x2 blocks, is factorised by one thread. The last
+// partition is factorised from the chain's tail instead (chain_partitions_tail.cpp), in a band
+// of its own and without a border: for two threads, a factorisation from both ends.
 #include <nonholo/rattle.hpp>
 
+#include <memory>
 #include <vector>
 
 #include <nonholo/sparse/banded_ldlt.hpp>
@@ -27,6 +30,12 @@ struct ChainPartitions {
   int parts;
   std::vector<int> first;       // parts + 1 body boundaries
   std::vector<double> border;   // L(s, r) for the left separator s of r's partition (x, y; 2 per row)
+  // The last partition, from the tail: body b's rows are rows 3k (its knife edge) and 3k+1,
+  // 3k+2 (the hitch b-1 -> b, negated) of `tail`, k = N-1-b; rows 3n-2, 3n-1 (n = its bodies)
+  // its left separator's. tail_x: a vector in that order.
+  int tail_first;
+  std::unique_ptr<sparse::BandedLdlt> tail;
+  std::vector<double> tail_x;
   std::vector<double> thrust_values;  // Forward::thrust_values: each thrust's force and torque at t_{k+1}
 
   // What partition j hands to the separators' system and to the step's sums, one cache line
@@ -70,6 +79,10 @@ struct PartRows {
   PartRows(sparse::BandedLdlt& b, const ChainPartitions& cp, int j, int bodies)
       : band(b), lb(cp.border.data()), n_bodies(bodies), b0(cp.first[j]), b1(cp.first[j + 1]), first(j == 0),
         last(j + 1 == cp.parts) {}
+  // The tail partition's rows, of n bodies, in its band (numbered from the tail): a first
+  // partition whose right separator is the tail's left one.
+  PartRows(sparse::BandedLdlt& tail, int bodies, int n)
+      : band(tail), lb(nullptr), n_bodies(bodies), b0(0), b1(n), first(true), last(false) {}
 
   bool separator(int g) const { return g == b1 - 1 && !last; }
   // Whether body g has hitch rows of this partition's own.
@@ -119,9 +132,33 @@ struct PartRows {
   }
 };
 
+// The tail partition's forward substitution of x's rows (in its order, back into x's), its
+// partial sums for its left separator in its part's left_y; the back substitution of its rows
+// (its separator's x known); after forward_tail, sum y^2 / D over its own rows (the mode's
+// measurement). chain_partitions_tail.cpp.
+void forward_tail(ChainPartitions& cp, int n_bodies, double* x);
+void backward_tail(ChainPartitions& cp, int n_bodies, double* x);
+double tail_mode(const ChainPartitions& cp, int n_bodies);
+// The tail partition's share of the step (PartSweep's in chain_partitions.cpp, from the tail).
+bool tail_sweep_forward(const Model& model, Workspace& ws, const State& st, double h, double t_next, bool kicked,
+                        double min_pivot_ratio);
+void tail_sweep_backward(const Model& model, Workspace& ws, double h);
+// Holonomic mode's passes on the tail (chain_partitions_passes.cpp's), its rows of the passes'
+// vector kept in tail_x throughout: the gaps' pass (kick, drift, gaps, forward substitution;
+// worst and largest as kick_drift_body and track_worst keep them), a forward substitution, and
+// the back substitution with each body's correction and next gaps (x: the separator's rows).
+void tail_gap_forward(const ChainBodies& body, ChainPartitions& cp, const double* q, const double* p,
+                      const double* force, double h, double scale, double* ph, double* qn, double* sc, double& worst,
+                      double& largest);
+void tail_forward_substitute(ChainPartitions& cp, int n_bodies);
+void tail_correct_backward(const ChainBodies& body, ChainPartitions& cp, const double* so, double h, double scale,
+                           double* ph, double* qn, double* sc, const double* x, double& worst);
+inline bool is_tail(const ChainPartitions& cp, int j) { return j + 1 == cp.parts && cp.parts > 1; }
+
 // Partition j's forward substitution of x (PartRows' order), its partial sums for the
 // separators in part[j].left_y and right_y.
 inline void forward_partition(sparse::BandedLdlt& band, ChainPartitions& cp, int j, int n_bodies, double* x) {
+  if (is_tail(cp, j)) return forward_tail(cp, n_bodies, x);
   const PartRows rows(band, cp, j, n_bodies);
   double* left = cp.part[j].left_y;
   left[0] = left[1] = 0.0;
@@ -167,6 +204,14 @@ inline void back_substitute_body(sparse::BandedLdlt& band, int b, int n_bodies, 
   unborder(x, r);
 }
 
+// Partition j's back substitution of x (the separators' x known).
+inline void backward_partition(sparse::BandedLdlt& band, ChainPartitions& cp, int j, int n_bodies, double* x) {
+  if (is_tail(cp, j)) return backward_tail(cp, n_bodies, x);
+  const Unborder unborder(cp, j, x);
+  const int b0 = cp.first[j], b1 = cp.first[j + 1];
+  for (int g = b1 - 1; g >= b0; --g) back_substitute_body(band, g, n_bodies, g == b1 - 1 && j + 1 < cp.parts, x, unborder);
+}
+
 // The separators' multipliers from their reduced right-hand sides (block.rhs) into x.
 void solve_separators(ChainPartitions& cp, double* x);
 
@@ -177,7 +222,7 @@ void solve_separators(ChainPartitions& cp, double* x);
 Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, const RattleOptions& o, double h,
                             double t_next, bool kicked, double& check);
 
-// x = C^-1 b with the factorisation a partitioned step left (x may be b).
+// x = C^-1 b with the factorisation a partitioned step left (x may be b), on its threads.
 void solve_parted(const Model& model, Workspace& ws, const double* b, double* x);
 
 // Holonomic mode's passes (chain_passes.cpp's, chain_sweep.hpp) with the partitioned

@@ -18,11 +18,12 @@ namespace {
 
 void measure_part(const Model& model, Workspace& ws, int j, const double* p, const double* lambda, double h,
                   const State* from, ChainPartitions::Part& out) {
-  const ChainPartitions& cp = *ws.partitions();
+  ChainPartitions& cp = *ws.partitions();
   const ChainBodies body = model.element_set()->chain_bodies();
   const int n_bodies = body.size();
   sparse::BandedLdlt& band = *ws.banded();
   const PartRows rows(band, cp, j, n_bodies);
+  const bool tail = is_tail(cp, j);
   const double* sc = ws.chain_sincos.data();
   const double* fa = model.has_applied_force() ? ws.applied.data() : nullptr;
   double* y = ws.scratch_m.data();
@@ -74,10 +75,15 @@ void measure_part(const Model& model, Workspace& ws, int j, const double* p, con
     group_bias(body[b], sc + 2 * b, next_sc(b), v[b & 1], last_body ? v[b & 1] : v[(b + 1) & 1], bias);
     const int r = 3 * b;
     for (int i = 0; i < g.rows; ++i) y[r + i] = dot3(g.u[i], z[b & 1]) + dot3(g.v[i], zn) + bias[i];
+    if (tail) continue;  // substituted from the chain's end, below
     if (rows.separator(b)) out.right_r[0] = y[r + 1], out.right_r[1] = y[r + 2];
     rows.forward(b, y, out.left_y, out.right_y);
     const int own_rows = rows.hitch_rows(b) ? g.rows : 1;
     for (int i = 0; i < own_rows; ++i) out.mode += y[r + i] * y[r + i] * band.row(r + i)[kChainBandwidth];
+  }
+  if (tail) {
+    forward_tail(cp, n_bodies, y);
+    out.mode += tail_mode(cp, n_bodies);
   }
 }
 

@@ -3,7 +3,8 @@
 // q_k left. Each thread kicks, drifts, corrects and measures the gaps of its own bodies and
 // substitutes its own rows (chain_passes.cpp's work on a partition, body by body in the same
 // operations); the separators' rows are solved, and their gaps taken, between the regions on
-// the calling thread.
+// the calling thread. The last partition works from the chain's end with its rows in tail_x
+// (chain_partitions_tail.cpp): x's rows of its bodies are not used.
 #include <omp.h>
 
 #include "step/chain/chain_partitions.hpp"
@@ -54,8 +55,14 @@ double chain_gap_forward_parted(const Model& model, Workspace& ws, const State& 
     const int team = omp_get_num_threads();
     for (int j = omp_get_thread_num(); j < parts; j += team) {
       ChainPartitions::Part& out = cp.part[j];
-      const PartRows rows(band, cp, j, n_bodies);
       double worst = 0.0, largest = 0.0, left[2] = {0.0, 0.0};
+      if (is_tail(cp, j)) {  // from the chain's end, in tail_x
+        tail_gap_forward(body, cp, q, p, force, h, scale, ph, qn, sc, worst, largest);
+        out.worst = worst;
+        out.largest = largest;
+        continue;
+      }
+      const PartRows rows(band, cp, j, n_bodies);
       kick_drift_body(body, rows.b0, q, p, force, h, ph, qn, sc, largest);
       for (int b = rows.b0; b < rows.b1; ++b) {
         const int r = 3 * b;
@@ -89,7 +96,8 @@ void chain_forward_substitute_parted(Workspace& ws, double* y) {
   {
     const FlushSubnormals flush;
     const int team = omp_get_num_threads();
-    for (int j = omp_get_thread_num(); j < parts; j += team) forward_partition(band, cp, j, n_bodies, y);
+    for (int j = omp_get_thread_num(); j < parts; j += team)
+      is_tail(cp, j) ? tail_forward_substitute(cp, n_bodies) : forward_partition(band, cp, j, n_bodies, y);
   }
 }
 
@@ -112,17 +120,21 @@ double chain_correct_backward_parted(const Model& model, Workspace& ws, double* 
     const int team = omp_get_num_threads();
     for (int j = omp_get_thread_num(); j < parts; j += team) {
       const int b0 = cp.first[j], b1 = cp.first[j + 1];
-      const bool last = j + 1 == parts;
-      const Unborder unborder(cp, j, x);
       double worst = 0.0;
       // Body c has all its multipliers; the separator's rows (the next partition reads them)
-      // keep theirs.
+      // keep theirs. c goes down: its next gap (to c+1) needs c+1 corrected, and it overwrites
+      // its rows, which the substitution of the bodies before no longer reads.
       auto finish = [&](int c) { correct_and_measure(body, c, c + 1 < b1, so, h, scale, ph, qn, sc, x, worst); };
-      for (int b = b1 - 1; b >= b0; --b) {
-        back_substitute_body(band, b, n_bodies, b == b1 - 1 && !last, x, unborder);
-        if (b + 1 < b1) finish(b + 1);
+      if (is_tail(cp, j)) {  // from the chain's end, in tail_x
+        tail_correct_backward(body, cp, so, h, scale, ph, qn, sc, x, worst);
+      } else {
+        const Unborder unborder(cp, j, x);
+        for (int b = b1 - 1; b >= b0; --b) {
+          back_substitute_body(band, b, n_bodies, b == b1 - 1, x, unborder);
+          if (b + 1 < b1) finish(b + 1);
+        }
+        finish(b0);
       }
-      finish(b0);
       cp.part[j].worst = worst;
     }
   }

@@ -45,24 +45,24 @@ inline void kick_drift_body(const ChainBodies& body, int b, const double* q, con
 // p_half += (h/2) mu_k^T dlambda and q_next += (h^2/2) M^-1 mu_k^T dlambda on body b, from
 // its knife edge [s, -c, a] and hitch rows [1, d s | ...], [1, -d c | ...] and the previous
 // hitch's [... | -1, f s], [... | -1, -f c] (group_rows' values, in the same operations);
-// so: sin/cos of q_k.
-inline void correct_body(const ChainBodies& body, int b, const double* so, const double* x, double h, double* ph,
-                         double* qn) {
+// so: sin/cos of q_k. The multipliers x = (previous hitch's x, y; knife edge's; hitch's x, y).
+inline void correct_body_with(const ChainBodies& body, int b, const double* so, const double (&x)[5], double h,
+                              double* ph, double* qn) {
   const int n_bodies = body.size();
   const double half = 0.5 * h, drift = 0.5 * h * h;
   const ChainBody& cb = body[b];
   const double s = so[2 * b], c = so[2 * b + 1];
-  const double lk = x[3 * b];
+  const double lk = x[2];
   double g[3] = {s * lk, -c * lk, cb.a * lk};
   if (b + 1 < n_bodies) {
-    const double lx = x[3 * b + 1], ly = x[3 * b + 2];
+    const double lx = x[3], ly = x[4];
     g[0] += lx;
     g[1] += ly;
     g[2] += (cb.d * s) * lx + (-cb.d * c) * ly;
   }
   if (b > 0) {
     const double f = body[b - 1].f;
-    const double px = x[3 * b - 2], py = x[3 * b - 1];
+    const double px = x[0], py = x[1];
     g[0] -= px;
     g[1] -= py;
     g[2] += (f * s) * px + (-f * c) * py;
@@ -71,6 +71,14 @@ inline void correct_body(const ChainBodies& body, int b, const double* so, const
     ph[3 * b + k] += half * g[k];
     qn[3 * b + k] += drift * (&cb.wx)[k] * g[k];
   }
+}
+// The same with body b's multipliers in their rows 3b-2 ... 3b+2 of x.
+inline void correct_body(const ChainBodies& body, int b, const double* so, const double* x, double h, double* ph,
+                         double* qn) {
+  const int n_bodies = body.size();
+  const double values[5] = {b > 0 ? x[3 * b - 2] : 0.0, b > 0 ? x[3 * b - 1] : 0.0, x[3 * b],
+                            b + 1 < n_bodies ? x[3 * b + 1] : 0.0, b + 1 < n_bodies ? x[3 * b + 2] : 0.0};
+  correct_body_with(body, b, so, values, h, ph, qn);
 }
 
 // Body c corrected (its multipliers all known): then sin/cos of its new angle, and in place of

@@ -95,7 +95,7 @@ struct Forward {
   // threads start (a callback is not known to be safe to call from several threads); null: the
   // sweep calls them.
   const double* thrust_values = nullptr;
-  std::size_t next_thrust = 0;
+  std::size_t next_thrust = 0, thrust_end;  // the thrusts on [lo, hi): [next_thrust, thrust_end)
   BlockSum kinetic_post;
   double potential_old = 0.0, potential_new = 0.0, check = 0.0;
 
@@ -104,16 +104,20 @@ struct Forward {
         force(st.force.data()), qn(ws.q_next.data()), ph(was_kicked ? ws.p_half.data() : ws.p_next.data()),
         fa(ws.applied.data()), key(ws.one_form_key()), sc(ws.chain_sincos.data()), pn(ws.p_next.data()),
         fn(ws.force_next.data()), lam(ws.lambda.data()), mu(ws.mu_values.data()), h(step), t_next(t),
-        kicked(was_kicked), forced(model.has_applied_force()), hi(body.size()) {}
+        kicked(was_kicked), forced(model.has_applied_force()), hi(body.size()), thrust_end(set.thrusts.size()) {}
 
   // Only the bodies [first, last) enter (a partition's).
   void restrict_to(int first, int last) {
     lo = first;
     hi = last;
     const auto& thrusts = set.thrusts;
-    next_thrust = static_cast<std::size_t>(
-        std::lower_bound(thrusts.begin(), thrusts.end(), first, [](const Thrust& t, int b) { return t.body < b; }) -
-        thrusts.begin());
+    auto bound = [&](int b) {
+      return static_cast<std::size_t>(
+          std::lower_bound(thrusts.begin(), thrusts.end(), b, [](const Thrust& t, int c) { return t.body < c; }) -
+          thrusts.begin());
+    };
+    next_thrust = bound(first);
+    thrust_end = bound(last);
   }
 
   // The sweeps' common end: the pivot summary, the caches (mu written or left to
@@ -142,6 +146,47 @@ struct Forward {
   template <int Kicked = -1, int Forced = -1>
   void enter(int i, bool trigonometry) {
     const bool was_kicked = Kicked >= 0 ? Kicked == 1 : kicked;
+    double* qi = move(i, was_kicked, trigonometry);
+    if (!(Forced >= 0 ? Forced == 1 : forced)) return;
+    double* f = fa + 3 * i;
+    f[0] = f[1] = f[2] = 0.0;
+    for (; next_thrust < thrust_end && set.thrusts[next_thrust].body == i; ++next_thrust) push(next_thrust, f, i);
+    if (i > 0 && body[i - 1].k != 0.0) {  // springs between i-1 and i, D = theta_{i-1} - theta_i
+      // Another partition's body, not drifted yet unless holonomic mode's passes drifted all.
+      const double before = i == lo && !was_kicked ? drifted_angle(i - 1) : qn[3 * i - 1];
+      const double torque = spring(i - 1, before, qi[2]);
+      if (i != lo) fa[3 * i - 1] -= torque;
+      f[2] += torque;
+    }
+    const ChainBody& b = body[i];
+    if (i + 1 == hi && hi < body.size() && b.k != 0.0)  // the spring to the next partition's first body
+      f[2] -= b.k * (qi[2] - (was_kicked ? qn[3 * (i + 1) + 2] : drifted_angle(i + 1))) - b.kr;
+  }
+
+  // The same with the bodies entering from the last (hi - 1) down to lo: a partition swept
+  // from the chain's tail (chain_partitions_tail.cpp), the last partition (hi = the chain's end).
+  // Body i's applied force is complete once body i-1 has entered (the spring between them).
+  void enter_reversed(int i, bool trigonometry) {
+    double* qi = move(i, kicked, trigonometry);
+    if (!forced) return;
+    double* f = fa + 3 * i;
+    f[0] = f[1] = f[2] = 0.0;
+    std::size_t k = thrust_end;  // body i's thrusts, in their order
+    while (k > next_thrust && set.thrusts[k - 1].body == i) --k;
+    for (std::size_t t = k; t < thrust_end; ++t) push(t, f, i);
+    thrust_end = k;
+    if (i + 1 < hi && body[i].k != 0.0) {  // the spring to i+1, which entered before
+      const double torque = spring(i, qi[2], qn[3 * i + 5]);
+      f[2] -= torque;
+      fa[3 * i + 5] += torque;
+    }
+    if (i == lo && i > 0 && body[i - 1].k != 0.0)  // the spring from the partition before
+      f[2] += spring(i - 1, kicked ? qn[3 * i - 1] : drifted_angle(i - 1), qi[2]);
+  }
+
+ private:
+  // Half kick and drift of body i (unless `was_kicked`), its key and sums, sin/cos.
+  double* move(int i, bool was_kicked, bool trigonometry) {
     const ChainBody& b = body[i];
     const double w[3] = {b.wx, b.wy, b.wt};
     double* qi = qn + 3 * i;
@@ -159,32 +204,29 @@ struct Forward {
     kinetic_post.add(kin);
     check += chk;
     if (trigonometry) sin_cos(qi[2], sc + 2 * i);
-    if (!(Forced >= 0 ? Forced == 1 : forced)) return;
-    double* f = fa + 3 * i;
-    f[0] = f[1] = f[2] = 0.0;
-    for (; next_thrust < set.thrusts.size() && set.thrusts[next_thrust].body == i; ++next_thrust) {
-      const Thrust& t = set.thrusts[next_thrust];
-      if (t.force) {
-        const double push = thrust_values ? thrust_values[2 * next_thrust] : t.force(t_next);
-        f[0] += push * sc[2 * i + 1];
-        f[1] += push * sc[2 * i];
-      }
-      if (t.torque) f[2] += thrust_values ? thrust_values[2 * next_thrust + 1] : t.torque(t_next);
-    }
-    if (i > 0 && body[i - 1].k != 0.0) {  // springs between i-1 and i, D = theta_{i-1} - theta_i
-      const ChainBody& sb = body[i - 1];
-      // Another partition's body, not drifted yet unless holonomic mode's passes drifted all.
-      const double before = i == lo && !was_kicked ? drifted_angle(i - 1) : qn[3 * i - 1];
-      const double now = before - qi[2], old = q[3 * i - 1] - q[3 * i + 2];
-      const double torque = sb.k * now - sb.kr;  // dV/dD
-      if (i != lo) fa[3 * i - 1] -= torque;
-      f[2] += torque;
-      potential_new += 0.5 * (sb.k * now * now + sb.krr) - sb.kr * now;
-      potential_old += 0.5 * (sb.k * old * old + sb.krr) - sb.kr * old;
-    }
-    if (i + 1 == hi && hi < body.size() && b.k != 0.0)  // the spring to the next partition's first body
-      f[2] -= b.k * (qi[2] - (was_kicked ? qn[3 * (i + 1) + 2] : drifted_angle(i + 1))) - b.kr;
+    return qi;
   }
+  // Thrust t on body i at t_{k+1}.
+  void push(std::size_t t, double* f, int i) {
+    const Thrust& th = set.thrusts[t];
+    if (th.force) {
+      const double push = thrust_values ? thrust_values[2 * t] : th.force(t_next);
+      f[0] += push * sc[2 * i + 1];
+      f[1] += push * sc[2 * i];
+    }
+    if (th.torque) f[2] += thrust_values ? thrust_values[2 * t + 1] : th.torque(t_next);
+  }
+  // The spring between bodies b and b+1 at angles (before, after): its torque dV/dD, its
+  // potential at t_{k+1} and at t_k (counted by the partition of body b+1).
+  double spring(int b, double before, double after) {
+    const ChainBody& sb = body[b];
+    const double now = before - after, old = q[3 * b + 2] - q[3 * b + 5];
+    potential_new += 0.5 * (sb.k * now * now + sb.krr) - sb.kr * now;
+    potential_old += 0.5 * (sb.k * old * old + sb.krr) - sb.kr * old;
+    return sb.k * now - sb.kr;
+  }
+
+ public:
 };
 
 }  // namespace nonholo::detail
