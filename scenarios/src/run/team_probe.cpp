@@ -23,7 +23,6 @@ void TeamProbe::set(int team) {
 void TeamProbe::before_step(long step) {
   if (threads_ == 1) return;
   if (first_step_ < 0) first_step_ = step;
-  step_ = step;
   const long i = count_ - kWarmUp;
   if (i < 0) return;
   const long at = i % ((2 + kProbeEvery) * kBlock);

@@ -37,7 +37,7 @@ class TeamProbe {
   std::function<void(int)> set_team_;
   Clock clock_;
   long count_ = 0;     // steps seen
-  long first_step_ = -1, step_ = 0;  // the first step seen (a resumed run's is not 1), the current
+  long first_step_ = -1;  // the first step seen (a resumed run's is not 1)
   double start_ = 0.0;
   double many_ = 0.0, one_ = 0.0;  // this probe's timed steps' times on each team, and their number
   int many_count_ = 0, one_count_ = 0;
