@@ -289,8 +289,9 @@ TEST(ChainThreads, LongRunsKeepTheOneThreadRoundOffAndRepeatBitwise) {
   }
 }
 
-// Inside the caller's own parallel region (nested parallelism off: a team of one) the
-// partitions run in turn on the calling thread: the same bits as on their own threads.
+// Two threads of the caller's own parallel region step a chain each at once: one gets the
+// worker pool, the other's jobs run on it alone (the pool busy: a team of one), as do jobs
+// that find the pool free, in turn; either way the same bits as on their own threads.
 TEST(ChainThreads, ASmallerTeamGivesTheSameBits) {
   const Chain c = random_chain(24, 9);
   const RattleOptions o = one_form();

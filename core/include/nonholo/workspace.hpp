@@ -43,8 +43,11 @@ struct WorkspaceOptions {
   /// common chain of knife edges and hitches (ElementSet::hitched_chain; springs and thrusts
   /// too), with one-form or holonomic hitches, is split into this many partitions of
   /// consecutive bodies, one per thread, at construction (std::invalid_argument for fewer than
-  /// 1, or for such a chain more than half its bodies). Thrust callbacks are called on the
-  /// calling thread, before the others start. Other models run on one thread. Threads only pay
+  /// 1, or for such a chain more than half its bodies). The partitions run on a pool of
+  /// worker threads kept for the process (started here as needed; idle workers spin briefly
+  /// after a step, then sleep); a step that finds the pool busy with another thread's step runs
+  /// its partitions in turn on its own thread, with the same results. Thrust callbacks are
+  /// called on the calling thread, before the others start. Other models run on one thread. Threads only pay
   /// where cores are free: not inside a batch, which already gives each core a trajectory
   /// (Workspace::set_team runs the partitions on fewer threads, with the same results).
   int threads = 1;

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "base/thread_team.hpp"
 #include "model/element_set.hpp"
 #include "step/chain/chain_partitions.hpp"
 #include "step/chain/chain_sweep.hpp"
@@ -83,7 +84,11 @@ void Workspace::set_up_threads(int threads) {
     throw std::invalid_argument("WorkspaceOptions::threads = " + std::to_string(threads) + " for " +
                                 std::to_string(bodies) + " bodies: each thread needs at least 2 bodies, so at most " +
                                 std::to_string(limit) + (limit == 1 ? " thread" : " threads"));
+  if (threads > detail::ThreadPool::kMaxTeam)
+    throw std::invalid_argument("WorkspaceOptions::threads = " + std::to_string(threads) + ": at most " +
+                                std::to_string(detail::ThreadPool::kMaxTeam) + " threads run one chain");
   partitions_ = std::make_unique<detail::ChainPartitions>(bodies, threads, static_cast<int>(set->thrusts.size()));
+  detail::ThreadPool::reserve(threads);  // the team's workers, kept for the process (thread_team.hpp)
   team_ = threads;
 }
 

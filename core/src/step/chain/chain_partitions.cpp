@@ -2,10 +2,11 @@
 // forward sweep over its partition (the one-thread sweep's work, plus the border), the
 // separators' 2x2 block-tridiagonal system on one thread, each thread's back substitution and
 // its bodies' p~ and force; and the solve with the factorisation this leaves.
+#include "base/thread_team.hpp"
 #include "step/chain/chain_partitions.hpp"
 
-#include <omp.h>
 
+#include <atomic>
 #include <cmath>
 
 #include "step/chain/chain_sweep.hpp"
@@ -340,30 +341,26 @@ Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, 
   const int parts = cp.parts;
   sparse::PivotLog separators;
   double separator_gap = 0.0;
-  bool forward_ok = true, reduced_ok = true;
-  // Nothing in the region throws (the thrusts were called above), so nothing escapes it.
-#pragma omp parallel num_threads(ws.team())
-  {
-    // MXCSR is per thread and pooled workers do not inherit it: flush subnormals in each.
+  std::atomic<bool> forward_ok{true};
+  bool reduced_ok = true;
+  // Nothing in the job throws (the thrusts were called above), so nothing escapes it.
+  auto job = [&](TeamMember& member) {
+    // MXCSR is per thread and the pool's workers do not inherit it: flush subnormals in each.
     const FlushSubnormals flush;
-    const int team = omp_get_num_threads();  // fewer when nested or limited: partitions in turn
+    const int team = member.size();  // fewer than the partitions: in turn
     bool ok = true;
-    for (int j = omp_get_thread_num(); j < parts; j += team)
+    for (int j = member.index(); j < parts; j += team)
       ok = (j == 0            ? PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next, kicked)
             : is_tail(cp, j) ? tail_sweep_forward(model, ws, st, h, t_next, kicked, o.min_pivot_ratio)
                               : PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).forward(st, t_next, kicked)) &&
            ok;
-    if (!ok) {
-#pragma omp atomic write
-      forward_ok = false;
-    }
-#pragma omp barrier
-#pragma omp single
-    {
-      if (forward_ok) reduced_ok = reduce(model, ws, h, o.min_pivot_ratio, separators, separator_gap);
-    }
-    if (forward_ok && reduced_ok)
-      for (int j = omp_get_thread_num(); j < parts; j += team) {
+    if (!ok) forward_ok.store(false, std::memory_order_relaxed);
+    member.barrier();
+    if (member.index() == 0 && forward_ok.load(std::memory_order_relaxed))
+      reduced_ok = reduce(model, ws, h, o.min_pivot_ratio, separators, separator_gap);
+    member.barrier();
+    if (forward_ok.load(std::memory_order_relaxed) && reduced_ok)
+      for (int j = member.index(); j < parts; j += team) {
         if (j == 0)
           PartSweep<true>(model, ws, j, h, o.min_pivot_ratio).backward();
         else if (is_tail(cp, j))
@@ -371,7 +368,8 @@ Status sweep_hitched_parted(const Model& model, Workspace& ws, const State& st, 
         else
           PartSweep<false>(model, ws, j, h, o.min_pivot_ratio).backward();
       }
-  }
+  };
+  ThreadPool::run(ws.team(), job);
   // The partitions' pivot tests in row order, then the separators'.
   for (const auto& part : cp.part) band.merge_pivots(part.pivots);
   band.merge_pivots(separators);
@@ -417,22 +415,22 @@ void solve_parted(const Model& model, Workspace& ws, const double* b, double* x)
     for (int r = 0; r < m; ++r) x[r] = b[r];
   // Each partition's forward substitution (as the sweep orders its rows) and its partial sums
   // for the separators; the separators on one thread; each partition's back substitution.
-#pragma omp parallel num_threads(ws.team())
-  {
+  auto job = [&](TeamMember& member) {
     const FlushSubnormals flush;
-    const int team = omp_get_num_threads();
-    for (int j = omp_get_thread_num(); j < parts; j += team) forward_partition(band, cp, j, n_bodies, x);
-#pragma omp barrier
-#pragma omp single
-    {
+    const int team = member.size();
+    for (int j = member.index(); j < parts; j += team) forward_partition(band, cp, j, n_bodies, x);
+    member.barrier();
+    if (member.index() == 0) {
       for (int j = 0; j + 1 < parts; ++j) {
         const int r = 3 * (cp.first[j + 1] - 1) + 1;
         for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = x[r + a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
       }
       solve_separators(cp, x);
     }
-    for (int j = omp_get_thread_num(); j < parts; j += team) backward_partition(band, cp, j, n_bodies, x);
-  }
+    member.barrier();
+    for (int j = member.index(); j < parts; j += team) backward_partition(band, cp, j, n_bodies, x);
+  };
+  ThreadPool::run(ws.team(), job);
 }
 
 }  // namespace nonholo::detail

@@ -3,11 +3,10 @@
 // forward-substitutes it with the partitioned factorisation, summing y^2 / D over its rows;
 // one thread adds the separators' part, z^T D'^-1 z over the reduced system's forward
 // elimination, so that |d|_C^2 = r^T C^-1 r whatever the partitions.
-#include <omp.h>
-
 #include <cmath>
 #include <limits>
 
+#include "base/thread_team.hpp"
 #include "step/chain/chain_partitions.hpp"
 #include "step/chain/chain_rows.hpp"
 #include "step/chain/chain_sweep.hpp"
@@ -94,17 +93,17 @@ Status chain_measure_parted(const Model& model, Workspace& ws, const double* p, 
   ChainPartitions& cp = *ws.partitions();
   const int parts = cp.parts;
   ChainPartitions::Part* out = cp.part.data();
-#pragma omp parallel num_threads(ws.team())
-  {
+  auto job = [&](TeamMember& member) {
     const FlushSubnormals flush;
-    const int team = omp_get_num_threads();
-    for (int j = omp_get_thread_num(); j < parts; j += team) {
+    const int team = member.size();
+    for (int j = member.index(); j < parts; j += team) {
       ChainPartitions::Part& part = out[j];
       part.mode = part.arriving = part.kicks = 0.0;
       part.left_y[0] = part.left_y[1] = 0.0;
       measure_part(model, ws, j, p, lambda, h, from, part);
     }
-  }
+  };
+  ThreadPool::run(ws.team(), job);
   double mode = 0.0, arriving = 0.0, kicks = 0.0;
   for (int j = 0; j < parts; ++j) {
     mode += out[j].mode;

@@ -2,11 +2,10 @@
 // threads: C(q_k) dlambda = scale [g; 0] solved with the partitioned factorisation the step to
 // q_k left. Each thread kicks, drifts, corrects and measures the gaps of its own bodies and
 // substitutes its own rows (chain_passes.cpp's work on a partition, body by body in the same
-// operations); the separators' rows are solved, and their gaps taken, between the regions on
+// operations); the separators' rows are solved, and their gaps taken, between the jobs on
 // the calling thread. The last partition works from the chain's end with its rows in tail_x
 // (chain_partitions_tail.cpp): x's rows of its bodies are not used.
-#include <omp.h>
-
+#include "base/thread_team.hpp"
 #include "step/chain/chain_partitions.hpp"
 #include "step/chain/chain_sweep.hpp"
 #include "step/chain/gap_rows.hpp"
@@ -49,11 +48,10 @@ double chain_gap_forward_parted(const Model& model, Workspace& ws, const State& 
   double *qn = ws.q_next.data(), *ph = ws.p_half.data();
   ws.forget_sincos();  // they are q_{k+1}'s from here on
   double* sc = ws.chain_sincos.data();
-#pragma omp parallel num_threads(ws.team())
-  {
+  auto job = [&](TeamMember& member) {
     const FlushSubnormals flush;  // per thread (chain_partitions.cpp)
-    const int team = omp_get_num_threads();
-    for (int j = omp_get_thread_num(); j < parts; j += team) {
+    const int team = member.size();
+    for (int j = member.index(); j < parts; j += team) {
       ChainPartitions::Part& out = cp.part[j];
       double worst = 0.0, largest = 0.0, left[2] = {0.0, 0.0};
       if (is_tail(cp, j)) {  // from the chain's end, in tail_x
@@ -81,7 +79,8 @@ double chain_gap_forward_parted(const Model& model, Workspace& ws, const State& 
       out.worst = worst;
       out.largest = largest;
     }
-  }
+  };
+  ThreadPool::run(ws.team(), job);
   double largest = 0.0;
   for (const auto& part : cp.part) largest = std::max(largest, part.largest);
   size = largest;
@@ -92,13 +91,13 @@ void chain_forward_substitute_parted(Workspace& ws, double* y) {
   ChainPartitions& cp = *ws.partitions();
   sparse::BandedLdlt& band = *ws.banded();
   const int parts = cp.parts, n_bodies = cp.first[parts];
-#pragma omp parallel num_threads(ws.team())
-  {
+  auto job = [&](TeamMember& member) {
     const FlushSubnormals flush;
-    const int team = omp_get_num_threads();
-    for (int j = omp_get_thread_num(); j < parts; j += team)
+    const int team = member.size();
+    for (int j = member.index(); j < parts; j += team)
       is_tail(cp, j) ? tail_forward_substitute(cp, n_bodies) : forward_partition(band, cp, j, n_bodies, y);
-  }
+  };
+  ThreadPool::run(ws.team(), job);
 }
 
 double chain_correct_backward_parted(const Model& model, Workspace& ws, double* x, double h, double scale) {
@@ -114,11 +113,10 @@ double chain_correct_backward_parted(const Model& model, Workspace& ws, double* 
     for (int a = 0; a < 2; ++a) cp.block[j].rhs[a] = x[r + a] - cp.part[j].right_y[a] - cp.part[j + 1].left_y[a];
   }
   solve_separators(cp, x);
-#pragma omp parallel num_threads(ws.team())
-  {
+  auto job = [&](TeamMember& member) {
     const FlushSubnormals flush;
-    const int team = omp_get_num_threads();
-    for (int j = omp_get_thread_num(); j < parts; j += team) {
+    const int team = member.size();
+    for (int j = member.index(); j < parts; j += team) {
       const int b0 = cp.first[j], b1 = cp.first[j + 1];
       double worst = 0.0;
       // Body c has all its multipliers; the separator's rows (the next partition reads them)
@@ -137,7 +135,8 @@ double chain_correct_backward_parted(const Model& model, Workspace& ws, double* 
       }
       cp.part[j].worst = worst;
     }
-  }
+  };
+  ThreadPool::run(ws.team(), job);
   return worst_gap(model, ws, scale, x);
 }
 
