@@ -126,9 +126,8 @@ struct PartSweep {
     Forward fw(model, ws, st, h, t_next, kicked);
     fw.restrict_to(b0, b1);
     fw.thrust_values = cp.thrust_values.data();
-    double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *lam = fw.lam, *sc = fw.sc;
-    const double half = 0.5 * h, rhs_scale = -2.0 / h;
-    const bool forced = fw.forced;
+    double *qn = fw.qn, *lam = fw.lam, *sc = fw.sc;
+    const double rhs_scale = -2.0 / h;
     double vhat[2][3] = {};
     double gap = 0.0, border_y[2] = {0.0, 0.0};
     const PartRows rows(band, cp, j, n_bodies);
@@ -138,11 +137,7 @@ struct PartSweep {
         const int b = i - 1;
         const ChainBody& cb = body[b];
         double* v = vhat[b & 1];
-        for (int c = 0; c < 3; ++c) {
-          const double pc = forced ? ph[3 * b + c] + half * fa[3 * b + c] : ph[3 * b + c];
-          pn[3 * b + c] = pc;
-          v[c] = (&cb.wx)[c] * pc;
-        }
+        fw.complete(b, cb, v);
         const double s = sc[2 * b], c = sc[2 * b + 1];
         const double fp = b > 0 ? body[b - 1].f : 0.0;
         const int r = 3 * b;

@@ -103,9 +103,8 @@ bool tail_sweep_forward(const Model& model, Workspace& ws, const State& st, doub
   Forward fw(model, ws, st, h, t_next, kicked);
   fw.restrict_to(b0, n_bodies);
   fw.thrust_values = cp.thrust_values.data();
-  double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *sc = fw.sc, *y = cp.tail_x.data();
-  const double half = 0.5 * h, rhs_scale = -2.0 / h;
-  const bool forced = fw.forced;
+  double *qn = fw.qn, *sc = fw.sc, *y = cp.tail_x.data();
+  const double rhs_scale = -2.0 / h;
   double vhat[2][3] = {};
   double gap = 0.0, right[2] = {0.0, 0.0}, work[KD];
   // The hitch b -> b+1's rows in the chain's order (knife_band_row, hitch_band_rows), kept from
@@ -119,11 +118,7 @@ bool tail_sweep_forward(const Model& model, Workspace& ws, const State& st, doub
       const int k = i - 1, b = n_bodies - 1 - k;
       const ChainBody& cb = body[b];
       double* v = vhat[k & 1];
-      for (int c = 0; c < 3; ++c) {
-        const double pc = forced ? ph[3 * b + c] + half * fa[3 * b + c] : ph[3 * b + c];
-        pn[3 * b + c] = pc;
-        v[c] = (&cb.wx)[c] * pc;
-      }
+      fw.complete(b, cb, v);
       const int r = 3 * k;
       double knife[5];
       knife_band_row(cb, sc[2 * b], sc[2 * b + 1], body[b - 1].f, knife);  // b >= b0 >= 2

@@ -40,7 +40,7 @@ Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOpt
 
   start_sweep(ws);
   Forward fw(model, ws, st, h, t_next, kicked);
-  double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *mu = fw.mu, *sc = fw.sc;
+  double *qn = fw.qn, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *mu = fw.mu, *sc = fw.sc;
   Group groups[2];        // groups b and b-1, by parity of b
   double vhat[2][3] = {};  // M^-1 p^ of bodies b and b-1, by parity
   double gap = 0.0;
@@ -54,11 +54,7 @@ Status sweep(const Model& model, Workspace& ws, const State& st, const RattleOpt
       const ChainBody& cb = body[b];
       const double w[3] = {cb.wx, cb.wy, cb.wt};
       double* v = vhat[b & 1];
-      for (int c = 0; c < 3; ++c) {
-        const double pc = forced ? ph[3 * b + c] + half * fa[3 * b + c] : ph[3 * b + c];
-        pn[3 * b + c] = pc;
-        v[c] = w[c] * pc;
-      }
+      fw.complete(b, cb, v);
       Group& g = groups[b & 1];
       const Group& prev = groups[(b + 1) & 1];
       const double* sc_next = b + 1 < n_bodies ? sc + 2 * b + 2 : sc + 2 * b;
@@ -158,7 +154,7 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
 
   start_sweep(ws);
   Forward fw(model, ws, st, h, t_next, kicked);
-  double *qn = fw.qn, *ph = fw.ph, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *sc = fw.sc;
+  double *qn = fw.qn, *pn = fw.pn, *fa = fw.fa, *fn = fw.fn, *lam = fw.lam, *sc = fw.sc;
   double vhat[2][3] = {};
   double gap = 0.0;
 
@@ -169,11 +165,7 @@ Status sweep_hitched(const Model& model, Workspace& ws, const State& st, const R
       const ChainBody& cb = body[b];
       const double wx = cb.wx, wy = cb.wy, wt = cb.wt;
       double* v = vhat[b & 1];
-      for (int c = 0; c < 3; ++c) {
-        const double pc = forced ? ph[3 * b + c] + half * fa[3 * b + c] : ph[3 * b + c];
-        pn[3 * b + c] = pc;
-        v[c] = (&cb.wx)[c] * pc;
-      }
+      fw.complete(b, cb, v);
       const double s = sc[2 * b], c = sc[2 * b + 1], a = cb.a;
       const double fp = b > 0 ? body[b - 1].f : 0.0;  // the previous hitch's front distance
       const int r = 3 * b;

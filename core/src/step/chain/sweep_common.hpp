@@ -120,6 +120,17 @@ struct Forward {
     thrust_end = bound(last);
   }
 
+  // Body b is complete (its forces at t_{k+1} are in): p^ = p_half + (h/2) f into pn, and
+  // v^ = M^-1 p^ into v.
+  void complete(int b, const ChainBody& cb, double* v) const {
+    const double half = 0.5 * h;
+    for (int c = 0; c < 3; ++c) {
+      const double pc = forced ? ph[3 * b + c] + half * fa[3 * b + c] : ph[3 * b + c];
+      pn[3 * b + c] = pc;
+      v[c] = (&cb.wx)[c] * pc;
+    }
+  }
+
   // The sweeps' common end: the pivot summary, the caches (mu written or left to
   // evaluate_one_forms), the diagnostics of the new state, the finiteness sum.
   Status finish(Workspace& ws, sparse::BandedLdlt& band, double min_pivot_ratio, const BlockSum& kinetic,
