@@ -36,8 +36,8 @@ def main(directory):
         with open(os.path.join(out, "nonholo", "_core.pyi")) as f:
             lines = f.read().splitlines()
     text = "\n".join(typed(line) for line in lines) + "\n"
-    # stubgen leaves out the module's dunder attributes; nonholo/__init__.py reads these two.
-    text += "\n__version__: str\n__git_revision__: str\n"
+    # stubgen leaves out the module's dunder attributes; nonholo/__init__.py reads these.
+    text += "\n__version__: str\n__git_revision__: str\n__target_arch__: str\n"
     if "numpy.typing" in text:
         text = text.replace("import numpy\n", "import numpy\nimport numpy.typing\n", 1)
     ast.parse(text)  # a stub that is not Python fails the build here, not in the user's mypy

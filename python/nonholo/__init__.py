@@ -36,6 +36,9 @@ if _typing.TYPE_CHECKING:  # names for the annotations only, kept out of the mod
     _Ranges = Union[Mapping[str, Tuple[_Real, _Real]], str, Iterable[str]]  # vary=: {NAME: (lo, hi)} or "NAME=LO:HI"s
 
 __version__ = _core.__version__  # CMakeLists.txt's project(VERSION); _core.__git_revision__ too
+# "portable", or the -march the library was built with (CMake's NONHOLO_ARCH): such a build's results
+# differ from the portable build's in the last bits.
+__target_arch__ = _core.__target_arch__
 
 __all__ = [name for name in dir(_core) if not name.startswith("_")] + [
     "run", "batch", "scenes", "load", "animate", "view", "RunResult", "BatchResult", "RunError"]

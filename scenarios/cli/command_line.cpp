@@ -7,6 +7,7 @@
 #include <nonholo/scenarios/run.hpp>
 #include <nonholo/scenarios/work_precision.hpp>
 
+#include <nonholo/build_config.hpp>
 #include <nonholo/version.hpp>
 
 #include <CLI/CLI.hpp>
@@ -292,7 +293,7 @@ void list_scenes(std::ostream& out) {
 int run_command_line(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
                      BatchProcesses* processes) {
   CLI::App app{"nonholo: momentum- and energy-preserving integration of nonholonomic systems"};
-  app.set_version_flag("--version", std::string("nonholo ") + kVersion + " (git " + kGitRevision + ")");
+  app.set_version_flag("--version", std::string("nonholo ") + kVersion + " (git " + kGitRevision + ", " + kTargetArch + ")");
   app.require_subcommand(1);
 
   RunOptions run;

@@ -179,6 +179,7 @@ def test_files_say_what_they_hold(tmp_path):
         a = f.attrs
         assert a["dt"] == 0.01 and a["t_end"] == 10.0 and a["steps"] == 1000
         assert text(a["nonholo_version"]).count(".") == 2 and len(text(a["git_revision"])) > 0
+        assert text(a["target_arch"]) == nonholo.__target_arch__  # "portable" or "-march=..."
         assert "consistent units, SI suggested" in text(a["units"])
         assert text(a["command"]) == "nonholo run sleigh --out " + str(tmp_path / "r.h5")
     done = cli("batch", "sleigh", "--count", "2", "--t-end", "0.5", "--out", str(tmp_path / "b.h5"))

@@ -215,6 +215,7 @@ def test_one_version_everywhere(tmp_path):
     assert re.fullmatch(r"\d+\.\d+\.\d+", nonholo.__version__)
     done = cli("--version")
     assert done.returncode == 0 and done.stdout.startswith("nonholo %s (git " % nonholo.__version__)
+    assert done.stdout.endswith(", %s)\n" % nonholo.__target_arch__)  # the same build's target CPU
     nonholo.run("sleigh", t_end=0.1, out=tmp_path / "v.h5")
     with h5py.File(tmp_path / "v.h5", "r") as f:
         version = f.attrs["nonholo_version"]

@@ -9,6 +9,8 @@
 /// when its rows run body by body (each element joins a body to the next one) the explicit
 /// step streams through it in one forward and one backward sweep (docs/design.md §7,
 /// core/src/step/chain/chain_sweep.cpp). Add them with ModelBuilder::add_knife_edge and friends.
+#include <nonholo/build_config.hpp>
+
 #include <Eigen/Core>
 
 #include <functional>

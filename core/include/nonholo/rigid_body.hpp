@@ -8,6 +8,8 @@
 /// in space: 3 + d entries. Momenta are p = M v with M = blockdiag(I, m Id), I the central
 /// inertia in the body frame (any SPD matrix, not only a diagonal one). Torques act in the
 /// body frame, forces in space. Add one with ModelBuilder::add_rigid_body.
+#include <nonholo/build_config.hpp>
+
 #include <Eigen/Core>
 
 #include <string>

@@ -3,6 +3,8 @@
 /// Vector types and the callback signatures a Model is built from. q has the model's n_q
 /// entries; velocities (qdot), momenta, forces, gradients and the columns of mu have n_v
 /// (nonholo/model.hpp; equal unless the model has 3-D rigid bodies).
+#include <nonholo/build_config.hpp>
+
 #include <Eigen/Core>
 #include <functional>
 

@@ -6,6 +6,7 @@
 #include "output/xdmf.hpp"
 
 #include <hdf5.h>
+#include <nonholo/build_config.hpp>
 #include <nonholo/version.hpp>
 
 #include <algorithm>
@@ -30,6 +31,7 @@ void describe_run(hid_t file, const std::string& path, const RunConfig& c, const
                   const Parameters* params, long steps) {
   attribute(file, path, "nonholo_version", std::string(kVersion));
   attribute(file, path, "git_revision", std::string(kGitRevision));  // at configure time
+  attribute(file, path, "target_arch", std::string(kTargetArch));  // "portable" or -march=...
   attribute(file, path, "units", std::string(kUnits));
   attribute(file, path, "command", c.command_line);
   attribute(file, path, "scene", scene);

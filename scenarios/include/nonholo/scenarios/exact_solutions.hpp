@@ -2,6 +2,8 @@
 /// @file
 /// Closed-form solutions of docs/design.md §6, independent of the integrators: the
 /// oracles of the accuracy tests and the error measurements.
+#include <nonholo/build_config.hpp>
+
 #include <Eigen/Core>
 #include <vector>
 
