@@ -27,7 +27,7 @@ void run(benchmark::State& bench, const std::string& scene, const std::vector<st
   Workspace ws(setup.model, {sparse::Backend::Auto, false, false});
   State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
   std::unique_ptr<AccuracyWatch> watch;
-  if (watched) watch = std::make_unique<AccuracyWatch>(setup.model, WorkspaceOptions{sparse::Backend::Auto, false, false}, o, every);
+  if (watched) watch = std::make_unique<AccuracyWatch>(ws, o, every);  // on the run's workspace, as nonholo run
   for (auto _ : bench) {
     if (watch) watch->before_step(s);
     if (step(setup.model, ws, s, o) != Status::Ok) bench.SkipWithError(ws.message());

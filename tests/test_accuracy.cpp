@@ -9,9 +9,11 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <string>
 
@@ -30,22 +32,87 @@ struct Watched {
   State state;
   double estimate;
   long samples;
+  DoublingEstimate counts;  // every number of the estimate
+  long factorizations;      // the run's workspace's
 };
 
-// The scene to T with the default options, with or without the watch.
-Watched integrate(const scenarios::SceneSetup& setup, const RattleOptions& o, double T, bool watch) {
-  Workspace ws(setup.model);
+// How the watch watches: not at all, on the run's workspace (nonholo run's), on its own.
+enum class Watch { None, Shared, Own };
+
+// The scene to T with these options, with or without the watch.
+Watched integrate(const scenarios::SceneSetup& setup, const RattleOptions& o, double T, Watch watch,
+                  const WorkspaceOptions& wo = {}) {
+  Workspace ws(setup.model, wo);
   State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
-  AccuracyWatch w(setup.model, {}, o, 32);
+  std::unique_ptr<AccuracyWatch> w;
+  if (watch == Watch::Shared) w = std::make_unique<AccuracyWatch>(ws, o, 32);
+  if (watch == Watch::Own) w = std::make_unique<AccuracyWatch>(setup.model, wo, o, 32);
   const long steps = std::lround(T / o.h);
   for (long k = 0; k < steps; ++k) {
-    if (watch) w.before_step(s);
+    if (w) w->before_step(s);
     const Status status = step(setup.model, ws, s, o);
     EXPECT_EQ(status, Status::Ok) << ws.message();
     if (status != Status::Ok) break;
-    if (watch) w.after_step(s);
+    if (w) w->after_step(s);
   }
-  return {s, w.estimate().estimate(), w.estimate().samples()};
+  if (!w) return {s, 0.0, 0, DoublingEstimate(1, o.order, 32), ws.factorizations};
+  return {s, w->estimate().estimate(), w->estimate().samples(), w->estimate(), ws.factorizations};
+}
+
+Watched integrate(const scenarios::SceneSetup& setup, const RattleOptions& o, double T, bool watch) {
+  return integrate(setup, o, T, watch ? Watch::Shared : Watch::None);
+}
+
+// The watch on the run's workspace (its shadow's held caches swapped in, the scratch shared)
+// against one on a workspace of its own, which shares nothing with the run: the same run, bit
+// for bit, as without a watch, and the same estimates, bit for bit. Every kind of step: the
+// fused chain in both hitch modes, on one thread and on two (partitioned), composed (order 4),
+// forces (the driven train), rigid bodies, and models stepped by the general path (snakeboard,
+// particle).
+TEST(Accuracy, OnTheRunsWorkspaceTheWatchEstimatesAsOnItsOwn) {
+  struct Case {
+    const char* scene;
+    std::vector<std::string> sets;
+    double h;
+    int order;
+    HitchMode hitch;
+    int threads;
+  };
+  for (const Case& c : {Case{"sleigh_chain", {"bodies=5"}, 0.01, 2, HitchMode::Holonomic, 1},
+                        Case{"sleigh_chain", {"bodies=5"}, 0.01, 2, HitchMode::OneForm, 1},
+                        Case{"sleigh_chain", {"bodies=40"}, 0.01, 2, HitchMode::Holonomic, 2},
+                        Case{"sleigh_chain", {"bodies=40"}, 0.01, 2, HitchMode::OneForm, 2},
+                        Case{"sleigh_chain", {"bodies=5"}, 0.05, 4, HitchMode::Holonomic, 1},
+                        Case{"wheeled_train", {"bodies=6"}, 0.01, 2, HitchMode::Holonomic, 1},
+                        Case{"chaplygin_ball", {}, 0.01, 2, HitchMode::Holonomic, 1},
+                        Case{"snakeboard", {}, 0.01, 2, HitchMode::Holonomic, 1},
+                        Case{"particle", {}, 0.01, 2, HitchMode::Holonomic, 1}}) {
+    const auto setup = testing::scene(c.scene, c.sets);
+    RattleOptions o;
+    o.h = c.h;
+    o.order = c.order;
+    o.hitch = c.hitch;
+    WorkspaceOptions wo;
+    wo.threads = c.threads;
+    const std::string name = std::string(c.scene) + " order " + std::to_string(c.order) + " threads " +
+                             std::to_string(c.threads) + (c.hitch == HitchMode::OneForm ? " oneform" : "");
+    const Watched plain = integrate(setup, o, 5.0, Watch::None, wo);
+    const Watched shared = integrate(setup, o, 5.0, Watch::Shared, wo);
+    const Watched own = integrate(setup, o, 5.0, Watch::Own, wo);
+    EXPECT_TRUE(plain.state.q == shared.state.q && plain.state.p == shared.state.p) << name;
+    EXPECT_TRUE(plain.state.lambda == shared.state.lambda && plain.state.force == shared.state.force) << name;
+    EXPECT_EQ(plain.state.restarts, shared.state.restarts) << name;
+    EXPECT_EQ(plain.factorizations, shared.factorizations) << name << ": the shadow's are not the run's";
+    EXPECT_GE(shared.samples, 8) << name;
+    const DoublingEstimate &a = shared.counts, &b = own.counts;
+    EXPECT_EQ(a.samples(), b.samples()) << name;
+    EXPECT_EQ(a.failed_samples(), b.failed_samples()) << name;
+    EXPECT_EQ(std::memcmp(&shared.estimate, &own.estimate, sizeof(double)), 0)
+        << name << ": " << shared.estimate << " against " << own.estimate;
+    const double la = a.local_max(), lb = b.local_max();
+    EXPECT_EQ(std::memcmp(&la, &lb, sizeof(double)), 0) << name;
+    EXPECT_EQ(a.fast_samples(), b.fast_samples()) << name;
+  }
 }
 
 TEST(Accuracy, TheWatchLeavesTheRunBitForBit) {

@@ -53,7 +53,7 @@ TEST(NoAllocation, AccuracyWatch) {
     o.order = order;
     Workspace ws(setup.model);
     State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
-    AccuracyWatch watch(setup.model, {}, o, 8);
+    AccuracyWatch watch(ws, o, 8);  // on the run's workspace, as nonholo run
     for (int k = 0; k < 4; ++k) {  // warm-up outside the count: the first samples
       watch.before_step(s);
       ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok) << ws.message();

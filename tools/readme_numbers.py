@@ -29,7 +29,7 @@ BLOCK = re.compile(r"(<!-- command: (?P<cmd>.*?) -->\n```text\n)(?P<out>.*?)(```
                    re.S)
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|[-+]?(?:nan|inf)\b")
 # Values that measure the machine, not the computation.
-TIMING_KEYS = ("wall_s=", "ns_per_step=", "ns_per_body_step=", "ms=", "seconds=")
+TIMING_KEYS = ("wall_s=", "setup_s=", "ns_per_step=", "ns_per_body_step=", "ms=", "seconds=")
 
 
 def pages():

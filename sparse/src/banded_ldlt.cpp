@@ -2,6 +2,7 @@
 // as the fused chain step streams it, and Auto's test of the band (half_bandwidth, band_is_compact).
 #include <nonholo/sparse/banded_ldlt.hpp>
 
+#include <nonholo/sparse/big_buffer.hpp>
 #include <nonholo/sparse/structure.hpp>
 
 #include <algorithm>
@@ -27,7 +28,7 @@ bool band_is_compact(const SymmetricPattern& pattern) {
 BandedLdlt::BandedLdlt(const SymmetricPattern& pattern)
     : Factorization(pattern.size), kd_(half_bandwidth(pattern)) {
   check_pattern(pattern);
-  band_.assign(static_cast<std::size_t>(pattern.size) * (kd_ + 1), 0.0);
+  fill_buffer(band_, static_cast<std::size_t>(pattern.size) * (kd_ + 1), 0.0);
   position_.resize(pattern.nnz());
   for (int j = 0; j < pattern.size; ++j)
     for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) {
@@ -46,7 +47,7 @@ BandedLdlt::BandedLdlt(int size, int kd) : Factorization(size), kd_(kd) {
   if (size < 0 || kd < 0 || kd > kBandedMaxBandwidth)
     throw std::invalid_argument("BandedLdlt: size " + std::to_string(size) + " and half-bandwidth " +
                                 std::to_string(kd) + " (at most " + std::to_string(kBandedMaxBandwidth) + ")");
-  band_.assign(static_cast<std::size_t>(size) * (kd_ + 1), 0.0);
+  fill_buffer(band_, static_cast<std::size_t>(size) * (kd_ + 1), 0.0);
   work_.assign(kd_ + 1, 0.0);
   has_pattern_ = false;
 }

@@ -25,4 +25,4 @@ def summary_of(line):
 
 def without_timings(line):
     """The summary line without what the clock measures."""
-    return " ".join(w for w in line.split() if not w.startswith(("wall_s=", "ns_per_step=", "ns_per_body_step=")))
+    return " ".join(w for w in line.split() if not w.startswith(("wall_s=", "setup_s=", "ns_per_step=", "ns_per_body_step=")))

@@ -2,8 +2,9 @@
 /// @file
 /// A cheap estimate of a run's global error in q, on by default in `nonholo run` (README
 /// "Accuracy check"). Every `every` steps one pair of steps is sampled: besides the run's two
-/// steps of h from x_k, a shadow takes ONE step of 2h from x_k (its own workspace and state, so
-/// the run is bit for bit the same with and without the watch). For a method of order p the
+/// steps of h from x_k, a shadow takes ONE step of 2h from x_k (on the run's workspace with its
+/// own HeldCaches, and its own state, so the run is bit for bit the same with and without the
+/// watch). For a method of order p the
 /// difference is (2^(p+1) - 2) times the local error of one step of h, to leading order
 /// (step doubling). The local errors are accumulated into a global estimate (GlobalError).
 #include <nonholo/archive.hpp>
@@ -14,6 +15,7 @@
 #include <nonholo/workspace.hpp>
 
 #include <limits>
+#include <memory>
 #include <string>
 
 namespace nonholo {
@@ -150,12 +152,20 @@ class DoublingEstimate {
 };
 
 /// The sampled step doubling of the reflection step (orders 2, 4, 6; a composed step counts as
-/// one step of H). Owns a second Workspace and State, sized once: no allocation after the
-/// constructor. The shadow never changes the run's state or workspace.
+/// one step of H). The shadow steps on the run's workspace: its scratch is shared (a shadow step
+/// never overlaps a run step), and what a step leaves for the next one is swapped for the
+/// shadow's own (HeldCaches) around each shadow step, so the run's workspace is left holding what
+/// it held. Besides that set, the watch keeps the shadow's state and the extent's range of q.
+/// Both are made at the first sample (the only allocations), or by prepare(). The shadow never changes the run's
+/// state or what its workspace holds for the next step.
 class AccuracyWatch {
  public:
-  /// Watches a run of `model` with these step options, sampling at most every `every` steps
-  /// (DoublingEstimate); the shadow's workspace is built with `workspace`. The model must
+  /// Watches a run stepped on `run` with these step options, sampling at most every `every`
+  /// steps (DoublingEstimate). The workspace (and its model) must outlive the watch, and the
+  /// run's steps and the watch's calls take turns on it (before_step, step, after_step).
+  AccuracyWatch(Workspace& run, const RattleOptions& options, int every);
+  /// The same with a workspace of the watch's own for the shadow, built with `workspace` (the
+  /// same estimates, bit for bit; the run may then step on any workspace). The model must
   /// outlive the watch.
   AccuracyWatch(const Model& model, const WorkspaceOptions& workspace, const RattleOptions& options, int every);
   AccuracyWatch(const Model&& model, const WorkspaceOptions&, const RattleOptions&, int) = delete;
@@ -171,11 +181,20 @@ class AccuracyWatch {
   }
   ///@}
 
+  /// Makes the shadow's state and caches now instead of at the first sample: a run that times
+  /// its steps apart from its set-up calls it in the set-up (nonholo run does).
+  void prepare() {
+    if (!held_made_) make_shadow();
+  }
+
   /// The estimate so far and its counters.
   const DoublingEstimate& estimate() const { return estimate_; }
 
-  /// The threads that run the shadow's partitions (Workspace::set_team; the same results).
-  void set_team(int threads) { ws_.set_team(threads); }
+  /// The threads that run the shadow's partitions on a workspace of its own (Workspace::set_team;
+  /// the same results); on the run's, its team is the run's.
+  void set_team(int threads) {
+    if (own_) own_->set_team(threads);
+  }
 
   /// Checkpoints: the estimate and the shadow's state (a sample may be under way); after load(),
   /// rebind() to the run's state.
@@ -186,13 +205,16 @@ class AccuracyWatch {
   ///@}
 
  private:
+  void make_shadow();
   void start_shadow(const State& s);
   void finish_shadow(const State& s);
   const Model& model_;
-  Workspace ws_;
+  std::unique_ptr<Workspace> own_;  // the shadow's own workspace, if it has one
+  Workspace& ws_;                   // the run's, or own_
+  HeldCaches held_;                 // the shadow's, made at the first sample
+  bool held_made_ = false;
   RattleOptions options_;  // h doubled
   State shadow_;
-  Vector velocity_, difference_;
   DoublingEstimate estimate_;
 };
 

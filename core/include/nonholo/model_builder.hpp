@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -34,7 +35,8 @@ class ModelBuilder {
   int add_rigid_body(const RigidBody& body);
 
   /// Optional: room for a model of this size, so that a million bodies are added without
-  /// regrowing (and copying) the builder's arrays; the name table is sized once.
+  /// regrowing (and copying) the builder's arrays; the name table is sized once. Elements get
+  /// room for the rows, a knife edge per body and a hitch per two rows.
   void reserve(int bodies, int coordinates, int rows, int values);
 
   /// A constraint row mu_a(q) qdot = 0 touching these coordinates (its sparsity pattern,
@@ -145,13 +147,16 @@ class ModelBuilder {
   void add_checked_body(const std::string* names, int k, const Eigen::Ref<const Eigen::MatrixXd>& block,
                         BodyKind kind);
   std::shared_ptr<detail::ElementSet> elements_;      // null until an element is added
+  int reserved_bodies_ = 0, reserved_rows_ = 0;        // reserve()'s, for the elements' arrays
   detail::ElementSet& elements();
   int planar_body(int body, const char* element) const;  // its first coordinate, or throws
   const Body& rigid_body(int body, const char* element) const;  // the body, or throws
   int centre_dimension(int body, const char* element) const;  // 2 or 3 (a rod's ends), or throws
   // A length on a body, against its radius of gyration and the range of C (builder_scales.hpp).
-  void check_planar_arm(const std::string& who, const char* what, double length, int offset) const;
-  void check_rigid_arm(const std::string& who, int body, double radius) const;
+  // `who` names the element for a message, built only when a check fails.
+  using Describe = std::function<std::string()>;
+  void check_planar_arm(const Describe& who, const char* what, double length, int offset) const;
+  void check_rigid_arm(const Describe& who, int body, double radius) const;
   Model finish(Model model, std::shared_ptr<detail::ElementSet> elements) const;
   void build_elements(Model& model, std::shared_ptr<detail::ElementSet> set) const;
 };

@@ -23,6 +23,7 @@ namespace nonholo {
 namespace detail {
 struct ChainPartitions;  // core/src/step/chain/chain_partitions.hpp
 }
+class HeldCaches;
 
 /// How a Workspace is built.
 struct WorkspaceOptions {
@@ -243,6 +244,15 @@ class alignas(128) Workspace {
   void save_held(OutArchive& a) const;
   void load_held(InArchive& a, double min_pivot_ratio);
   ///@}
+  /// A second trajectory on this workspace (the accuracy check's shadow, accuracy.hpp): what a
+  /// step leaves for the next one of the same trajectory (HeldCaches) swapped in for its steps
+  /// and out after them, every other buffer shared. make_held() sizes a set like this
+  /// workspace's, holding nothing yet; swap_held() exchanges it with the workspace's own, in
+  /// constant time (pointers and flags).
+  ///@{
+  HeldCaches make_held() const;
+  void swap_held(HeldCaches& other) noexcept;
+  ///@}
   /// Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
   bool sincos_hold(ConstVecRef q) const;
   /// ... and C(q) is factorised (one comparison of q; in natural order or partitioned).
@@ -269,11 +279,45 @@ class alignas(128) Workspace {
   RattleOptions options_;
   Status report_non_finite_one_forms();
   void set_up_threads(int threads);
+  std::unique_ptr<sparse::Factorization> new_factor(sparse::Backend backend) const;
   // " (row r is <label>)" for a labelled row of mu or C, "" otherwise; no allocation.
   const char* row_note(int row);
   char row_note_[256] = "";
   sparse::Message message_;
   BusyFlag busy_;
+};
+
+/// What a step leaves in a Workspace for the next step of the same trajectory, and nothing else:
+/// mu(q) and the q it belongs to, C(q) factorised (with a chain's partitions' numbers), a
+/// chain's sines and cosines, the last fused step's diagnostics, the counters (factorizations,
+/// legendre_iterations, parasitic, restarted) and the options last accepted. Every other buffer
+/// of a Workspace is scratch that a step writes before it reads. A second trajectory stepped on
+/// the same workspace keeps its own set here (Workspace::make_held, swap_held): the accuracy
+/// check's shadow needs no second copy of the scratch (for a million-body chain about 0.4 GB of
+/// the 0.64 GB a workspace holds). Move-only; empty until made by make_held().
+class HeldCaches {
+ public:
+  HeldCaches();   ///< empty (Workspace::make_held makes a usable one)
+  ~HeldCaches();  ///< frees the factorisation and the buffers
+  /// Moved, not copied: the factorisation is owned.
+  ///@{
+  HeldCaches(HeldCaches&&) noexcept;
+  HeldCaches& operator=(HeldCaches&&) noexcept;
+  ///@}
+
+ private:
+  friend class Workspace;
+  std::unique_ptr<sparse::Factorization> factor_;
+  std::unique_ptr<detail::ChainPartitions> partitions_;
+  Vector mu_q_, mu_values_, chain_sincos_, chain_sincos_prev_;
+  bool key_valid_ = false, mu_valid_ = false, factor_valid_ = false, sincos_valid_ = false, parted_ = false;
+  Workspace::StepDiagnostics step_diagnostics_;
+  long factorizations_ = 0;
+  int legendre_iterations_ = 0;
+  double parasitic_ = 0.0;
+  bool restarted_ = false;
+  bool options_known_ = false;
+  RattleOptions options_;
 };
 
 }  // namespace nonholo

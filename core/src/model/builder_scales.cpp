@@ -10,8 +10,7 @@ namespace {
 constexpr double kRoundOff = 0x1p52;  // 1/eps: an entry this much smaller is lost in a sum
 }  // namespace
 
-void check_mass_scale(const std::string& who, const char* what, double value) {
-  if (value >= kMinScale && value <= kMaxScale) return;
+void mass_scale_failure(const std::string& who, const char* what, double value) {
   const bool small = value < kMinScale;
   std::ostringstream os;
   os << who << ": " << what << " = " << value << " is " << (small ? "below " : "above ")
@@ -22,11 +21,16 @@ void check_mass_scale(const std::string& who, const char* what, double value) {
   throw std::invalid_argument(os.str());
 }
 
-void check_lever_arm(const std::string& who, const char* what, double length, double w_trans, double w_rot) {
+bool lever_arm_in_range(double length, double w_trans, double w_rot) {
   const double a = std::abs(length);
   const double gyration = std::sqrt(w_trans) / std::sqrt(w_rot);  // sqrt(I / m); no overflow
+  return a <= kRoundOff * gyration && w_trans + a * a * w_rot <= kMaxScale;
+}
+
+void lever_arm_failure(const std::string& who, const char* what, double length, double w_trans, double w_rot) {
+  const double a = std::abs(length);
+  const double gyration = std::sqrt(w_trans) / std::sqrt(w_rot);
   const double diagonal = w_trans + a * a * w_rot;
-  if (a <= kRoundOff * gyration && diagonal <= kMaxScale) return;
   std::ostringstream os;
   os << who << ": " << what << " = " << length;
   if (a > kRoundOff * gyration)

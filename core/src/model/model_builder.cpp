@@ -2,6 +2,8 @@
 // checked as it is added, and build(), which checks the rows and finishes the Model.
 #include <nonholo/model_builder.hpp>
 
+#include <nonholo/sparse/big_buffer.hpp>
+
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <algorithm>
@@ -113,8 +115,9 @@ int ModelBuilder::add_body(const std::vector<std::string>& names, const Eigen::M
     fail(os.str());
   }
   if (smallest > 0.0) {
-    detail::check_mass_scale(who() + ": mass block", "smallest eigenvalue", smallest);
-    detail::check_mass_scale(who() + ": mass block", "largest eigenvalue", largest);
+    const auto block_of = [&] { return who() + ": mass block"; };
+    detail::check_mass_scale(block_of, "smallest eigenvalue", smallest);
+    detail::check_mass_scale(block_of, "largest eigenvalue", largest);
   }
   if (!(smallest * kMaxCondition >= largest)) {
     std::ostringstream os;
@@ -248,8 +251,8 @@ int ModelBuilder::add_planar_body(const std::array<std::string, 3>& names, doubl
   };
   check("mass m", mass);
   check("moment of inertia I", inertia);
-  detail::check_mass_scale(who(), "mass m", mass);
-  detail::check_mass_scale(who(), "moment of inertia I", inertia);
+  detail::check_mass_scale(who, "mass m", mass);
+  detail::check_mass_scale(who, "moment of inertia I", inertia);
   const double smallest = std::min(mass, inertia), largest = std::max(mass, inertia);
   if (!(smallest * 1e12 >= largest))  // add_body says why
     return add_body({names.begin(), names.end()}, Eigen::Vector3d(mass, mass, inertia).asDiagonal().toDenseMatrix());
@@ -301,9 +304,10 @@ int ModelBuilder::add_rigid_body(const RigidBody& rb) {
     os << who() << ": inertia is not positive definite (principal moments " << moments.transpose() << ")";
     fail(os.str());
   }
-  if (d > 0) detail::check_mass_scale(who(), "mass m", rb.mass);
-  detail::check_mass_scale(who() + ": inertia", "smallest principal moment", moments.minCoeff());
-  detail::check_mass_scale(who() + ": inertia", "largest principal moment", moments.maxCoeff());
+  if (d > 0) detail::check_mass_scale(who, "mass m", rb.mass);
+  const auto inertia_of = [&] { return who() + ": inertia"; };
+  detail::check_mass_scale(inertia_of, "smallest principal moment", moments.minCoeff());
+  detail::check_mass_scale(inertia_of, "largest principal moment", moments.maxCoeff());
   const double smallest = std::min(moments.minCoeff(), d > 0 ? rb.mass : moments.minCoeff());
   const double largest = std::max(moments.maxCoeff(), d > 0 ? rb.mass : moments.maxCoeff());
   if (!(smallest * 1e12 >= largest)) {
@@ -351,11 +355,14 @@ int ModelBuilder::add_rigid_body(const RigidBody& rb) {
 
 void ModelBuilder::reserve(int bodies, int coordinates, int rows, int values) {
   if (bodies < 0 || coordinates < 0 || rows < 0 || values < 0) fail("reserve: negative size");
-  draft_.bodies_.reserve(static_cast<std::size_t>(bodies));
-  draft_.names_.reserve(static_cast<std::size_t>(coordinates));
+  using sparse::reserve_buffer;
+  reserve_buffer(draft_.bodies_, static_cast<std::size_t>(bodies));
+  reserve_buffer(draft_.names_, static_cast<std::size_t>(coordinates));
   draft_.mass_.reserve(coordinates);
-  row_ptr_.reserve(static_cast<std::size_t>(rows) + 1);
-  row_cols_.reserve(static_cast<std::size_t>(values));
+  reserve_buffer(row_ptr_, static_cast<std::size_t>(rows) + 1);
+  reserve_buffer(row_cols_, static_cast<std::size_t>(values));
+  reserved_bodies_ = bodies;
+  reserved_rows_ = rows;
 }
 
 int ModelBuilder::add_row(const int* columns, int count, std::string label) {
@@ -380,7 +387,12 @@ int ModelBuilder::add_holonomic_row(const std::vector<int>& columns, std::string
 }
 
 detail::ElementSet& ModelBuilder::elements() {
-  if (!elements_) elements_ = std::make_shared<detail::ElementSet>();
+  if (!elements_) {  // room for the reserved rows: a knife edge per body and a hitch per two rows at most
+    elements_ = std::make_shared<detail::ElementSet>();
+    sparse::reserve_buffer(elements_->rows, static_cast<std::size_t>(reserved_rows_));
+    sparse::reserve_buffer(elements_->knife_edges, static_cast<std::size_t>(std::min(reserved_bodies_, reserved_rows_)));
+    sparse::reserve_buffer(elements_->hitches, static_cast<std::size_t>(std::min(reserved_bodies_, reserved_rows_ / 2)));
+  }
   return *elements_;
 }
 
@@ -436,13 +448,13 @@ void check_finite(const char* element, const char* what, double value) {
 }  // namespace
 
 // A length on a planar body whose velocity entries start at o (builder_scales.hpp).
-void ModelBuilder::check_planar_arm(const std::string& who, const char* what, double length, int o) const {
+void ModelBuilder::check_planar_arm(const Describe& who, const char* what, double length, int o) const {
   const sparse::BlockDiagonal& m = draft_.mass_;
   detail::check_lever_arm(who, what, length, 1.0 / std::min(m.entry(o, o), m.entry(o + 1, o + 1)),
                           1.0 / m.entry(o + 2, o + 2));
 }
 
-void ModelBuilder::check_rigid_arm(const std::string& who, int body, double radius) const {
+void ModelBuilder::check_rigid_arm(const Describe& who, int body, double radius) const {
   // rigid_ is in body order (a chain of a million balls: no linear search per element).
   const auto r = std::lower_bound(draft_.rigid_.begin(), draft_.rigid_.end(), body,
                                   [](const RigidBlock& x, int b) { return x.body < b; });
@@ -452,7 +464,7 @@ void ModelBuilder::check_rigid_arm(const std::string& who, int body, double radi
 int ModelBuilder::add_knife_edge(const KnifeEdge& knife, std::string label) {
   const int o = planar_body(knife.body, "knife edge");
   check_finite("knife edge", "a", knife.a);
-  check_planar_arm("knife edge on body " + std::to_string(knife.body), "offset a", knife.a, o);
+  check_planar_arm([&knife] { return "knife edge on body " + std::to_string(knife.body); }, "offset a", knife.a, o);
   auto& set = elements();
   set.knife_edges.push_back(knife);
   set.rows.push_back({detail::ElementRow::Knife, static_cast<int>(set.knife_edges.size()) - 1});
@@ -465,7 +477,9 @@ int ModelBuilder::add_hitch(const Hitch& hitch, std::string label) {
   if (hitch.rear == hitch.front) fail("hitch: joins body " + std::to_string(hitch.rear) + " to itself");
   check_finite("hitch", "d", hitch.d);
   check_finite("hitch", "f", hitch.f);
-  const std::string bodies = "hitch of bodies " + std::to_string(hitch.rear) + " and " + std::to_string(hitch.front);
+  const auto bodies = [&hitch] {
+    return "hitch of bodies " + std::to_string(hitch.rear) + " and " + std::to_string(hitch.front);
+  };
   check_planar_arm(bodies, "rear offset d (on the rear body)", hitch.d, r);
   check_planar_arm(bodies, "front offset f (on the front body)", hitch.f, f);
   auto& set = elements();
@@ -554,7 +568,7 @@ int ModelBuilder::add_rolling_ball(const RollingBall& ball, std::string label) {
     fail("rolling ball: body " + std::to_string(ball.body) +
          " has translation 0; a rolling ball's centre moves (translation 2 or 3)");
   check_length("rolling ball", "radius", ball.radius);
-  check_rigid_arm("rolling ball on body " + std::to_string(ball.body), ball.body, ball.radius);
+  check_rigid_arm([&ball] { return "rolling ball on body " + std::to_string(ball.body); }, ball.body, ball.radius);
   auto& set = elements();
   set.balls.push_back(ball);
   const int index = static_cast<int>(set.balls.size()) - 1;
@@ -578,7 +592,7 @@ int ModelBuilder::add_rolling_disk(const RollingDisk& disk, std::string label) {
     fail("rolling disk: body " + std::to_string(disk.body) + " has translation " + std::to_string(b.translation) +
          "; a rolling disk's centre rises and falls as it tilts (translation 3)");
   check_length("rolling disk", "radius", disk.radius);
-  check_rigid_arm("rolling disk on body " + std::to_string(disk.body), disk.body, disk.radius);
+  check_rigid_arm([&disk] { return "rolling disk on body " + std::to_string(disk.body); }, disk.body, disk.radius);
   auto& set = elements();
   set.disks.push_back(disk);
   const int index = static_cast<int>(set.disks.size()) - 1;
@@ -669,6 +683,7 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
                                        [](const RigidBlock& r) { return r.translation == 3; }))
     fail("gravity: no rigid body of the model moves in 3-D (translation 3): it would act on nothing");
   set->value_offset.assign(model.pattern_.row_ptr.begin(), model.pattern_.row_ptr.end() - 1);
+  sparse::reserve_buffer(set->body_offset, model.bodies_.size());
   for (const Body& b : model.bodies_) set->body_offset.push_back(b.offset);
   if (model.has_rigid_bodies()) {
     set->rigid = model.rigid_;
@@ -685,6 +700,7 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
   for (int b = 0; chain && b < bodies; ++b) chain = model.bodies_[b].size == 3 && model.bodies_[b].offset == 3 * b;
   for (std::size_t r = 0; chain && r < element_rows; ++r) chain = !set->rows[r].rigid();
   if (chain) {
+    sparse::reserve_buffer(set->chain, static_cast<std::size_t>(bodies));
     set->chain.resize(static_cast<std::size_t>(bodies));
     const double* w = model.inverse_mass_.diagonal();
     for (int b = 0; b < bodies; ++b) set->chain[b] = {w[3 * b], w[3 * b + 1], w[3 * b + 2], 0, 0, 0, 0, 0, 0, 0};
@@ -873,11 +889,18 @@ Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elem
         fail(os.str());
       }
     }
-    sorted.assign(cols.begin() + ptr[r], cols.begin() + ptr[r + 1]);
-    std::sort(sorted.begin(), sorted.end());
-    const auto twice = std::adjacent_find(sorted.begin(), sorted.end());
-    if (twice != sorted.end())
-      fail(row() + ": column " + std::to_string(*twice) + " (" + names[*twice] + ") appears twice");
+    int twice = -1;
+    if (ptr[r + 1] - ptr[r] <= 16) {  // an element's row: pairs, no copy; the smallest repeat, as sorted
+      for (int k = ptr[r] + 1; k < ptr[r + 1]; ++k)
+        for (int j = ptr[r]; j < k; ++j)
+          if (cols[j] == cols[k] && (twice < 0 || cols[k] < twice)) twice = cols[k];
+    } else {
+      sorted.assign(cols.begin() + ptr[r], cols.begin() + ptr[r + 1]);
+      std::sort(sorted.begin(), sorted.end());
+      const auto at = std::adjacent_find(sorted.begin(), sorted.end());
+      if (at != sorted.end()) twice = *at;
+    }
+    if (twice >= 0) fail(row() + ": column " + std::to_string(twice) + " (" + names[twice] + ") appears twice");
   }
   check_structural_rank(model, ptr, cols);  // before anything the size of C is built
   build_elements(model, std::move(elements));

@@ -2,6 +2,8 @@
 // factorised and solved with named failures, and the caches a checkpoint keeps.
 #include <nonholo/workspace.hpp>
 
+#include <nonholo/sparse/big_buffer.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "base/thread_team.hpp"
 #include "model/element_set.hpp"
@@ -19,59 +22,105 @@ namespace nonholo {
 
 Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : model_(&model) {
   const int n = model.num_velocities(), nq = model.num_configuration(), m = model.num_one_forms();
-  for (Vector* v : {&q_next, &scratch_q, &mu_q_}) v->setZero(nq);
+  for (Vector* v : {&q_next, &scratch_q, &mu_q_}) sparse::zero_buffer(*v, nq);
   for (Vector* v : {&p_half, &p_hat, &p_next, &velocity, &applied, &force_next, &scratch_n, &scratch_n2})
-    v->setZero(n);
+    sparse::zero_buffer(*v, n);
   if (model.has_rigid_bodies()) {
-    p_arrive.setZero(n);
-    gyroscopic.setZero(n);
-    gyroscopic_m.setZero(m);
+    sparse::zero_buffer(p_arrive, n);
+    sparse::zero_buffer(gyroscopic, n);
+    sparse::zero_buffer(gyroscopic_m, m);
   }
-  mu_values.setZero(model.num_one_form_values());
+  sparse::zero_buffer(mu_values, model.num_one_form_values());
   // The bias by central differences needs two more copies of mu (dynamics.cpp), the midpoint
   // DLA one; a model with its own bias (every element model) stepped by reflections none:
   // 176 MB less for a million-body chain.
-  if (!model.has_analytic_bias() || options.dla_steps) scratch_nnz.setZero(model.num_one_form_values());
-  if (!model.has_analytic_bias()) scratch_nnz2.setZero(model.num_one_form_values());
-  rhs.setZero(m);
-  lambda.setZero(m);
-  scratch_m.setZero(m);
-  gap.setZero(model.num_holonomic());
-  if (m > 0) lambda_s.setZero(m);
-  if (model.num_holonomic() > 0) offset_multiplier.setZero(m);
-  if (m > 0 && model.has_applied_force()) lambda_f.setZero(m);
+  if (!model.has_analytic_bias() || options.dla_steps) sparse::zero_buffer(scratch_nnz, model.num_one_form_values());
+  if (!model.has_analytic_bias()) sparse::zero_buffer(scratch_nnz2, model.num_one_form_values());
+  sparse::zero_buffer(rhs, m);
+  sparse::zero_buffer(lambda, m);
+  sparse::zero_buffer(scratch_m, m);
+  sparse::zero_buffer(gap, model.num_holonomic());
+  if (m > 0) sparse::zero_buffer(lambda_s, m);
+  if (model.num_holonomic() > 0) sparse::zero_buffer(offset_multiplier, m);
+  if (m > 0 && model.has_applied_force()) sparse::zero_buffer(lambda_f, m);
   const int maps = static_cast<int>(model.momentum_maps().size());
   if (m > 0 && maps > 0) {
     map_directions.setZero(n, maps);
-    for (Vector* v : {&map_probe, &map_rest, &map_linear}) v->setZero(n);
-    map_lambda0.setZero(m);
-    map_lambda1.setZero(m);
-    map_values.setZero(2 * maps);  // J_j, then the scale each is checked against
+    for (Vector* v : {&map_probe, &map_rest, &map_linear}) sparse::zero_buffer(*v, n);
+    sparse::zero_buffer(map_lambda0, m);
+    sparse::zero_buffer(map_lambda1, m);
+    sparse::zero_buffer(map_values, 2 * maps);  // J_j, then the scale each is checked against
     map_span.assign(2 * static_cast<std::size_t>(maps), 0);
   }
   if (options.composed_steps) {
-    saved_q.setZero(nq);
-    saved_p.setZero(n);
-    saved_force.setZero(n);
-    saved_lambda.setZero(m);
+    sparse::zero_buffer(saved_q, nq);
+    sparse::zero_buffer(saved_p, n);
+    sparse::zero_buffer(saved_force, n);
+    sparse::zero_buffer(saved_lambda, m);
   }
   sparse::Backend backend = options.backend;
   if (backend == sparse::Backend::Auto && model.is_chain()) backend = sparse::Backend::Banded;
-  // A chain's band is set up from its layout: its C's pattern and index map (Model::gram)
-  // are not built unless another backend is forced.
-  if (m > 0 && model.is_chain() && backend == sparse::Backend::Banded)
-    factor_ = std::make_unique<sparse::BandedLdlt>(m, model.element_set()->chain_bandwidth);
-  else if (m > 0)
-    factor_ = sparse::make_factorization(backend, model.gram().pattern());
+  factor_ = new_factor(backend);
   if (factor_ && factor_->backend() == sparse::Backend::Banded) banded_ = static_cast<sparse::BandedLdlt*>(factor_.get());
-  if (fused()) chain_sincos.setZero(2 * model.num_bodies());
-  if (fused() && model.element_set()->hitched_chain) chain_sincos_prev.setZero(2 * model.num_bodies());
+  if (fused()) sparse::zero_buffer(chain_sincos, 2 * model.num_bodies());
+  if (fused() && model.element_set()->hitched_chain) sparse::zero_buffer(chain_sincos_prev, 2 * model.num_bodies());
   // CHOLMOD receives C straight into its own matrix; the others read it from c_values.
-  if (factor_ && !factor_->values_in_place()) c_values.setZero(model.gram().pattern().nnz());
+  if (factor_ && !factor_->values_in_place()) sparse::zero_buffer(c_values, model.gram().pattern().nnz());
   set_up_threads(options.threads);
 }
 
 Workspace::~Workspace() = default;
+
+// A chain's band is set up from its layout: its C's pattern and index map (Model::gram) are not
+// built unless another backend is forced.
+std::unique_ptr<sparse::Factorization> Workspace::new_factor(sparse::Backend backend) const {
+  const int m = model_->num_one_forms();
+  if (m > 0 && model_->is_chain() && backend == sparse::Backend::Banded)
+    return std::make_unique<sparse::BandedLdlt>(m, model_->element_set()->chain_bandwidth);
+  if (m > 0) return sparse::make_factorization(backend, model_->gram().pattern());
+  return nullptr;
+}
+
+HeldCaches::HeldCaches() = default;
+HeldCaches::~HeldCaches() = default;
+HeldCaches::HeldCaches(HeldCaches&&) noexcept = default;
+HeldCaches& HeldCaches::operator=(HeldCaches&&) noexcept = default;
+
+HeldCaches Workspace::make_held() const {
+  HeldCaches h;
+  if (factor_) h.factor_ = new_factor(factor_->backend());
+  if (partitions_)
+    h.partitions_ = std::make_unique<detail::ChainPartitions>(
+        model_->num_bodies(), partitions_->parts, static_cast<int>(model_->element_set()->thrusts.size()));
+  for (auto [mine, theirs] : {std::pair{&mu_q_, &h.mu_q_}, std::pair{&mu_values, &h.mu_values_},
+                              std::pair{&chain_sincos, &h.chain_sincos_}, std::pair{&chain_sincos_prev, &h.chain_sincos_prev_}})
+    sparse::zero_buffer(*theirs, mine->size());
+  return h;
+}
+
+void Workspace::swap_held(HeldCaches& h) noexcept {
+  using std::swap;
+  swap(factor_, h.factor_);
+  banded_ = factor_ && factor_->backend() == sparse::Backend::Banded ? static_cast<sparse::BandedLdlt*>(factor_.get())
+                                                                     : nullptr;
+  swap(partitions_, h.partitions_);
+  mu_q_.swap(h.mu_q_);
+  mu_values.swap(h.mu_values_);
+  chain_sincos.swap(h.chain_sincos_);
+  chain_sincos_prev.swap(h.chain_sincos_prev_);
+  swap(key_valid_, h.key_valid_);
+  swap(mu_valid_, h.mu_valid_);
+  swap(factor_valid_, h.factor_valid_);
+  swap(sincos_valid_, h.sincos_valid_);
+  swap(parted_, h.parted_);
+  swap(step_diagnostics, h.step_diagnostics_);
+  swap(factorizations, h.factorizations_);
+  swap(legendre_iterations, h.legendre_iterations_);
+  swap(parasitic, h.parasitic_);
+  swap(restarted, h.restarted_);
+  swap(options_known_, h.options_known_);
+  swap(options_, h.options_);
+}
 
 // One chain on several threads (chain_partitions.hpp): the common chain of knife edges and hitches.
 void Workspace::set_up_threads(int threads) {

@@ -3,6 +3,7 @@
 #include <nonholo/accuracy.hpp>
 
 #include <nonholo/rattle.hpp>
+#include <nonholo/sparse/big_buffer.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -114,7 +115,7 @@ RattleOptions doubled(RattleOptions o) {
 }
 
 // The differences of a finished pair (shadow minus run) fed to the estimate: q, and the velocity
-// M^-1 p; `velocity` and `difference` are scratch of n_v entries.
+// M^-1 p; `velocity` and `difference` are scratch of n_v entries (the workspace's).
 void feed(const Model& model, DoublingEstimate& e, double t, double h, ConstVecRef q_shadow, ConstVecRef q,
           ConstVecRef p_shadow, ConstVecRef p, Vector& velocity, Vector& difference) {
   const double dq = (q_shadow - q).lpNorm<Eigen::Infinity>();
@@ -127,33 +128,48 @@ void feed(const Model& model, DoublingEstimate& e, double t, double h, ConstVecR
 
 }  // namespace
 
+AccuracyWatch::AccuracyWatch(Workspace& run, const RattleOptions& options, int every)
+    : model_(run.model()),
+      ws_(run),
+      options_(doubled(options)),
+      estimate_(run.model().num_configuration(), options.order, every) {}
+
 AccuracyWatch::AccuracyWatch(const Model& model, const WorkspaceOptions& workspace, const RattleOptions& options,
                              int every)
     : model_(model),
-      ws_(model, workspace),
+      own_(std::make_unique<Workspace>(model, workspace)),
+      ws_(*own_),
       options_(doubled(options)),
-      estimate_(model.num_configuration(), options.order, every) {
-  const Eigen::Index nq = model.num_configuration(), nv = model.num_velocities(), m = model.num_one_forms();
-  shadow_.q.setZero(nq);
-  shadow_.p.setZero(nv);
-  shadow_.lambda.setZero(m);
-  shadow_.force.setZero(nv);
-  velocity_.setZero(nv);
-  difference_.setZero(nv);
+      estimate_(model.num_configuration(), options.order, every) {}
+
+// The shadow's held caches and state (huge pages asked for), made once: at the first sample, or
+// when a checkpoint with a sample under way is loaded.
+void AccuracyWatch::make_shadow() {
+  held_ = ws_.make_held();
+  held_made_ = true;
+  sparse::zero_buffer(shadow_.q, model_.num_configuration());
+  sparse::zero_buffer(shadow_.p, model_.num_velocities());
+  sparse::zero_buffer(shadow_.lambda, model_.num_one_forms());
+  sparse::zero_buffer(shadow_.force, model_.num_velocities());
 }
 
+// The shadow's step of 2h from the run's state, with its own held caches swapped in and the
+// run's put back after (the message of a failed step read in between).
 void AccuracyWatch::start_shadow(const State& s) {
   estimate_.include(s.q);
+  if (!held_made_) make_shadow();
   shadow_ = s;  // same sizes: a copy, no allocation
+  ws_.swap_held(held_);
   const Status status = step(model_, ws_, shadow_, options_);
   if (status == Status::Ok)
     estimate_.started();
   else
     estimate_.failed(s.t, to_string(status), ws_.message());
+  ws_.swap_held(held_);
 }
 
 void AccuracyWatch::finish_shadow(const State& s) {
-  feed(model_, estimate_, s.t, options_.h / 2, shadow_.q, s.q, shadow_.p, s.p, velocity_, difference_);
+  feed(model_, estimate_, s.t, options_.h / 2, shadow_.q, s.q, shadow_.p, s.p, ws_.scratch_n, ws_.scratch_n2);
 }
 
 void DoublingEstimate::save(OutArchive& a) const {
@@ -189,7 +205,9 @@ void AccuracyWatch::save(OutArchive& a) const {
 
 void AccuracyWatch::load(InArchive& a) {
   estimate_.load(a);
-  if (estimate_.pending()) nonholo::load(a, shadow_);
+  if (!estimate_.pending()) return;
+  if (!held_made_) make_shadow();
+  nonholo::load(a, shadow_);
 }
 
 }  // namespace nonholo

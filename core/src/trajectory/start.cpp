@@ -3,6 +3,7 @@
 #include <nonholo/start.hpp>
 
 #include <nonholo/dynamics.hpp>
+#include <nonholo/sparse/big_buffer.hpp>
 
 #include "step/dynamics_internal.hpp"
 #include "step/rigid/drift.hpp"
@@ -63,10 +64,11 @@ void check(Status status, const Workspace& ws, const char* doing) {
 State allocate_state(const Model& model, double t0, ConstVecRef q0) {
   State s;
   s.t = t0;
+  sparse::zero_buffer(s.q, q0.size());
   s.q = q0;
-  s.p.setZero(model.num_velocities());
-  s.force.setZero(model.num_velocities());
-  s.lambda.setZero(model.num_one_forms());
+  sparse::zero_buffer(s.p, model.num_velocities());
+  sparse::zero_buffer(s.force, model.num_velocities());
+  sparse::zero_buffer(s.lambda, model.num_one_forms());
   return s;
 }
 

@@ -1,5 +1,6 @@
 // A batch's summary line from its trajectories' (aggregate.hpp): errors and energies at their
-// worst, steps, restarts and factorisations summed, the per-step time weighted by the steps.
+// worst, steps, restarts and factorisations summed, the per-step time weighted by the steps, the
+// set-up per trajectory.
 #include "batch/aggregate.hpp"
 
 #include <algorithm>
@@ -36,7 +37,7 @@ void aggregate(const PreparedRun& prepared, const BatchConfig& config, std::vect
   agg.scene = prepared.info.name;
   agg.method = config.run.method;
   agg.dt = prepared.dt;
-  double loop_ns = 0.0;
+  double loop_ns = 0.0, setup_s = 0.0;
   for (std::size_t i = 0; i < rows.size(); ++i) {
     BatchResult::Trajectory& r = rows[i];
     if (!errors[i].empty()) {
@@ -62,6 +63,7 @@ void aggregate(const PreparedRun& prepared, const BatchConfig& config, std::vect
     agg.steps += s.steps;
     agg.t_final = std::max(agg.t_final, s.t_final);
     loop_ns += s.ns_per_step * static_cast<double>(s.steps);
+    setup_s += s.setup_s;
     agg.energy_rel_err_max = worst(agg.energy_rel_err_max, s.energy_rel_err_max);
     agg.energy_post_rel_err_max = worst(agg.energy_post_rel_err_max, s.energy_post_rel_err_max);
     agg.residual_max = worst(agg.residual_max, s.residual_max);
@@ -76,6 +78,7 @@ void aggregate(const PreparedRun& prepared, const BatchConfig& config, std::vect
     if (s.rhs_evaluations >= 0) agg.rhs_evaluations = std::max(0L, agg.rhs_evaluations) + s.rhs_evaluations;
   }
   agg.ns_per_step = agg.steps > 0 ? loop_ns / static_cast<double>(agg.steps) : 0.0;
+  agg.setup_s = rows.empty() ? 0.0 : setup_s / static_cast<double>(rows.size());
   agg.ns_per_body_step = agg.bodies > 0 ? agg.ns_per_step / agg.bodies : 0.0;
 }
 

@@ -26,6 +26,7 @@ std::vector<SummaryField> RunSummary::fields() const {
   number("dt", dt);
   number("t_end", t_final);
   number("wall_s", wall_s);
+  number("setup_s", setup_s);
   number("ns_per_step", ns_per_step);
   number("ns_per_body_step", ns_per_body_step);
   number("energy_rel_err_max", energy_rel_err_max);

@@ -110,6 +110,7 @@ RunLoop::RunLoop(const PreparedRun& run, const Parameters& params, const RunConf
     : run_(run), params_(params), config_(config), hooks_(hooks), reflection_(config.method == "reflection") {}
 
 TrajectoryResult RunLoop::run() {
+  run_start_ = Clock::now();
   set_up();
   read_loop_state();
   open_outputs();
@@ -282,6 +283,7 @@ void RunLoop::loop() {
   last_checkpoint_ = last_flush_ = Clock::now();
   if (hooks_.progress) hooks_.progress->begin_steps();
   loop_start_ = Clock::now();
+  summary_.setup_s = std::chrono::duration<double>(loop_start_ - run_start_).count();
   for (long k = loop_.k + 1; k <= run_.steps && summary_.status == Status::Ok; ++k) {
     if (stop_requested(k) || watches_fail(k) || !advance(k)) break;
     const Diagnostics d = measure(k);

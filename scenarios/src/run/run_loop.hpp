@@ -112,7 +112,7 @@ class RunLoop {
   std::string thread_warning_;  // set_up's: threads asked for that do not all help
   std::optional<TeamProbe> team_probe_;  // the run's threads against one, as the load changes
 
-  Clock::time_point loop_start_, last_checkpoint_, last_flush_;
+  Clock::time_point run_start_, loop_start_, last_checkpoint_, last_flush_;
   double output_s_ = 0.0, companion_s_ = 0.0, loop_s_ = 0.0;
 };
 

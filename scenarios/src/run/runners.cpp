@@ -49,8 +49,10 @@ class ReflectionRunner final : public Runner {
     announce(phase, "starting");
     state_ = start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0);
     if (c.adaptive_on()) stepper_ = std::make_unique<AdaptiveStepper>(setup.model, c.rattle, c.adaptive);
-    if (c.accuracy_every > 0)
-      watch_ = std::make_unique<AccuracyWatch>(setup.model, reflection_workspace(c), c.rattle, c.accuracy_every);
+    if (c.accuracy_every > 0) {  // its shadow made now: set-up, not the first step, pays for it
+      watch_ = std::make_unique<AccuracyWatch>(ws_, c.rattle, c.accuracy_every);
+      watch_->prepare();
+    }
   }
   Status advance(double t_next) override {
     if (stepper_) {  // pairs of adaptive steps, the last landing on t_next
@@ -82,8 +84,7 @@ class ReflectionRunner final : public Runner {
   std::string backend() const override { return ws_.backend_name(); }
   int threads() const override { return ws_.threads(); }
   void set_team(int threads) override {
-    ws_.set_team(threads);
-    if (watch_) watch_->set_team(threads);
+    ws_.set_team(threads);  // the watch's shadow steps on ws_ too
   }
   double parasitic() const override { return ws_.parasitic; }
   long restarts() const override { return state_.restarts; }

@@ -32,7 +32,7 @@ SceneSetup build_chain(const ChainSpec& spec) {
   const int n_bodies = static_cast<int>(spec.bodies.size());
   if (n_bodies == 0) throw std::invalid_argument("chain: no bodies");
   for (int i = 0; i < n_bodies; ++i) check_body(spec.bodies[i], static_cast<std::size_t>(i));
-  const std::vector<ChainBody> bodies = spec.bodies;
+  const std::vector<ChainBody>& bodies = spec.bodies;
   const bool hitched = spec.hitched && n_bodies > 1;
 
   // Local elements (nonholo/elements.hpp), body by body: blade of i, then the hitch from i

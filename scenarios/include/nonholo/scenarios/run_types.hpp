@@ -131,6 +131,9 @@ struct RunSummary {
   double dt = 0.0;  ///< the step, or the output interval
   double t_final = 0.0;  ///< the time reached (the line's t_end)
   double wall_s = 0.0;       ///< whole run: set-up, integration, diagnostics, output
+  /// Set-up: from the run's start to its first step (the model, the workspaces, the start state,
+  /// the outputs opened); a batch's line: the mean over its trajectories. Like wall_s, not repeatable.
+  double setup_s = 0.0;
   double ns_per_step = 0.0;  ///< integration and per-step diagnostics, without set-up or CSV
   double ns_per_body_step = 0.0;  ///< ns_per_step / bodies
   /// The largest relative change of the energy of the state, and of the post-momentum's energy.

@@ -11,7 +11,7 @@
 namespace nonholo::scenarios {
 
 // Bumped whenever the bytes change meaning: a checkpoint of another format version is refused.
-constexpr long kCheckpointFormat = 2;  // 2: RunConfig::threads
+constexpr long kCheckpointFormat = 3;  // 2: RunConfig::threads; 3: RunSummary::setup_s
 
 struct CheckpointInfo {
   std::string scene, method;

@@ -5,6 +5,8 @@
 /// (row-major, back to back) only once some block is not diagonal; the blocks' offsets and the
 /// owner of each coordinate only once the blocks differ in size (else they are computed).
 #include <Eigen/Core>
+
+#include <nonholo/sparse/big_buffer.hpp>
 #include <vector>
 
 namespace nonholo::sparse {
@@ -15,7 +17,7 @@ class BlockDiagonal {
   /// Appends a square block; the caller has validated it.
   void add_block(const Eigen::Ref<const Eigen::MatrixXd>& block);
   /// Room for this many coordinates (no regrowth while a large model is added block by block).
-  void reserve(int coordinates) { diag_.reserve(static_cast<std::size_t>(coordinates)); }
+  void reserve(int coordinates) { reserve_buffer(diag_, static_cast<std::size_t>(coordinates)); }
 
   int size() const { return size_; }  ///< rows (and columns)
   int num_blocks() const { return blocks_; }  ///< blocks added
