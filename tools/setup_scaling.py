@@ -69,8 +69,8 @@ def main():
              "Written by `tools/setup_scaling.py` (%s, %d processors; %d repetitions: minimum time, largest "
              "peak). `nonholo run sleigh_chain --set bodies=N --hitch H --t-end 0.2`, 20 steps, each in a "
              "fresh process: `setup_s` from its summary (to the first step: model, workspace, start, the "
-             "accuracy check's shadow, outputs), the step from its `ns_per_step`, the peak resident memory "
-             "from `/usr/bin/time`." % (platform.processor() or platform.machine(), os.cpu_count(), args.repetitions),
+             "accuracy check's shadow, outputs), the step from its `ns_per_step` (the mean of the 20 steps, "
+             "with the accuracy check's dense first samples), the peak resident memory from `/usr/bin/time`." % (platform.processor() or platform.machine(), os.cpu_count(), args.repetitions),
              "",
              "| hitch | accuracy check | N | set-up s | step s | set-up / step | peak MB | bytes per body | threads |",
              "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
