@@ -43,7 +43,8 @@ struct ChainBodies {
   const ChainBody* data;
   int count;
   int stride;  // 1, or 0 when uniform
-  const ChainBody& operator[](int b) const { return data[b + 1 < count ? b * stride : count - 1]; }
+  int last;    // the last body's entry: count - 1, or 1 when uniform (data holds two entries)
+  const ChainBody& operator[](int b) const { return data[b + 1 < count ? b * stride : last]; }
   int size() const { return count; }
 };
 
@@ -83,12 +84,16 @@ struct ElementSet {
 
   // The chain layout, when every body is planar with a diagonal M^-1 and the rows run body
   // by body as [knife edge of b][hitch b -> b+1 (x, y)] with springs only between
-  // neighbours: then chain.size() == number of bodies. Empty otherwise.
+  // neighbours: then chain holds an entry per body (two for a uniform chain, below). Empty
+  // otherwise.
   std::vector<ChainBody> chain;
   // Every body but the last has chain[0]'s data bit for bit: the passes read chain_bodies().
   bool chain_uniform = false;
+  // A uniform chain keeps two entries in `chain`, the common body's and the last's (80 MB less
+  // for a million bodies); chain_count is the number of bodies either way.
+  int chain_count = 0;
   ChainBodies chain_bodies() const {
-    return {chain.data(), static_cast<int>(chain.size()), chain_uniform ? 0 : 1};
+    return {chain.data(), chain_count, chain_uniform ? 0 : 1, static_cast<int>(chain.size()) - 1};
   }
   // The half-bandwidth of C in the chain's row order (4 with knife edges and hitches, 0 with
   // knife edges only), from the layout alone: the banded factor of a chain is set up without

@@ -754,6 +754,9 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
     for (int b = 0; set->hitched_chain && b < bodies; ++b)
       set->hitched_chain = set->chain[b].flags == (b + 1 < bodies ? detail::kChainKnife | detail::kChainHitch
                                                                    : detail::kChainKnife);
+    set->chain_count = chain ? bodies : 0;
+    if (set->chain_uniform)  // the passes read the first and the last entry (chain_bodies)
+      set->chain = std::vector<detail::ChainBody>{set->chain.front(), set->chain.back()};
   }
 
   const std::shared_ptr<const detail::ElementSet> e = set;

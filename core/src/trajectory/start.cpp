@@ -5,9 +5,11 @@
 #include <nonholo/dynamics.hpp>
 #include <nonholo/sparse/big_buffer.hpp>
 
+#include "model/element_set.hpp"
 #include "step/dynamics_internal.hpp"
 #include "step/rigid/drift.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -38,8 +40,9 @@ void check_vector(const char* what, ConstVecRef v, const Model& model, bool conf
 
 // A configuration with each rigid body's quaternion normalised: refused unless its norm is
 // within 1e-6 of 1 (a rotation given by mistake, or not at all, is not silently made one).
-Vector unit_quaternions(const char* what, ConstVecRef q, const Model& model) {
-  Vector out = q;
+// q with each rigid body's quaternion divided by its norm, in place; throws unless the norms are
+// within 1e-6 of 1.
+void normalise_quaternions(const char* what, VecRef q, const Model& model) {
   for (const RigidBlock& r : model.rigid_bodies()) {
     const double norm = q.segment<4>(r.q).norm();
     if (!(std::abs(norm - 1.0) <= 1e-6)) {
@@ -51,8 +54,13 @@ Vector unit_quaternions(const char* what, ConstVecRef q, const Model& model) {
          << "; give a unit quaternion (w, x, y, z), for example axis_angle_quaternion(axis, angle)";
       throw std::invalid_argument(os.str());
     }
-    out.segment<4>(r.q) /= norm;
+    q.segment<4>(r.q) /= norm;
   }
+}
+
+Vector unit_quaternions(const char* what, ConstVecRef q, const Model& model) {
+  Vector out = q;
+  normalise_quaternions(what, out, model);
   return out;
 }
 
@@ -64,7 +72,8 @@ void check(Status status, const Workspace& ws, const char* doing) {
 State allocate_state(const Model& model, double t0, ConstVecRef q0) {
   State s;
   s.t = t0;
-  sparse::zero_buffer(s.q, q0.size());
+  s.q.resize(q0.size());  // written whole below: no zero fill
+  sparse::advise_huge_pages(s.q.data(), sizeof(double) * static_cast<std::size_t>(q0.size()));
   s.q = q0;
   sparse::zero_buffer(s.p, model.num_velocities());
   sparse::zero_buffer(s.force, model.num_velocities());
@@ -93,16 +102,22 @@ Vector& sized_buffer(Vector& buffer, Vector& local, Eigen::Index size) {
 // one that fills too few values would otherwise leave the previous call's numbers there and
 // go unseen (debug builds also NaN-fill mu before every evaluation, workspace.cpp). The
 // outputs go to the workspace's scratch buffers (clobbered; the one-form cache is untouched).
+// Rows from elements have the library's values, bias and gaps, which fill every entry: not
+// checked (three passes over mu and two over the rows: a tenth of a million-body chain's start).
 void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVecRef q0) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const int n = model.num_velocities();
   const auto& names = model.velocity_names();
   auto complain = [](const std::string& what) { throw std::invalid_argument("start: " + what); };
   Vector local, local2;
-  if (model.num_one_forms() > 0) {
-    // Into the one-form cache itself (forgotten, so the start evaluates mu again): no second
-    // copy of mu is needed (WorkspaceOptions::dla_steps).
-    ws.forget_one_forms();
+  const bool element_rows = model.has_elements() && !model.element_set()->rows.empty();
+  ws.forget_one_forms();  // the start evaluates mu afresh
+  const bool generators = std::any_of(model.momentum_maps().begin(), model.momentum_maps().end(),
+                                      [](const NamedMomentumMap& m) { return static_cast<bool>(m.generator); });
+  if (model.num_one_forms() > 0 && element_rows && generators) model.one_form_values(q0, ws.mu_values);
+  if (model.num_one_forms() > 0 && !element_rows) {
+    // Into the one-form cache itself (forgotten): no second copy of mu is needed
+    // (WorkspaceOptions::dla_steps); the symmetry generators' check below reads it.
     Vector& mu = ws.mu_values;
     mu.setConstant(nan);
     model.one_form_values(q0, mu);
@@ -160,7 +175,7 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
       }
     }
   }
-  if (model.num_holonomic() > 0) {
+  if (model.num_holonomic() > 0 && !element_rows) {
     Vector& g = sized_buffer(ws.gap, local, model.num_holonomic());
     g.setConstant(nan);
     model.gap(q0, g);
@@ -192,9 +207,9 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
   check_time(t0);
   check_vector("q0", q0, model, true);
   check_vector("the velocity guess", v_guess, model, false);
-  const Vector q_unit = unit_quaternions("q0", q0, model);
-  check_callbacks_fill(model, ws, t0, q_unit);
-  State s = allocate_state(model, t0, q_unit);
+  State s = allocate_state(model, t0, q0);  // q0's quaternions normalised in s.q: no copy of q0 besides
+  normalise_quaternions("q0", s.q, model);
+  check_callbacks_fill(model, ws, t0, s.q);
 
   model.mass().multiply(v_guess.data(), s.p.data());
   check(detail::project_momentum(model, ws, s.q, s.p, s.p, options.min_pivot_ratio), ws,
