@@ -38,10 +38,8 @@ void check_vector(const char* what, ConstVecRef v, const Model& model, bool conf
     }
 }
 
-// A configuration with each rigid body's quaternion normalised: refused unless its norm is
+// Each rigid body's quaternion in q divided by its norm, in place: refused unless its norm is
 // within 1e-6 of 1 (a rotation given by mistake, or not at all, is not silently made one).
-// q with each rigid body's quaternion divided by its norm, in place; throws unless the norms are
-// within 1e-6 of 1.
 void normalise_quaternions(const char* what, VecRef q, const Model& model) {
   for (const RigidBlock& r : model.rigid_bodies()) {
     const double norm = q.segment<4>(r.q).norm();
@@ -58,6 +56,7 @@ void normalise_quaternions(const char* what, VecRef q, const Model& model) {
   }
 }
 
+// The same into a copy.
 Vector unit_quaternions(const char* what, ConstVecRef q, const Model& model) {
   Vector out = q;
   normalise_quaternions(what, out, model);
@@ -103,7 +102,7 @@ Vector& sized_buffer(Vector& buffer, Vector& local, Eigen::Index size) {
 // go unseen (debug builds also NaN-fill mu before every evaluation, workspace.cpp). The
 // outputs go to the workspace's scratch buffers (clobbered; the one-form cache is untouched).
 // Rows from elements have the library's values, bias and gaps, which fill every entry: not
-// checked (three passes over mu and two over the rows: a tenth of a million-body chain's start).
+// checked (three passes over mu and two over the rows, for a large chain's start).
 void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVecRef q0) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const int n = model.num_velocities();
