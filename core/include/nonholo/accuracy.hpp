@@ -156,8 +156,8 @@ class DoublingEstimate {
 /// never overlaps a run step), and what a step leaves for the next one is swapped for the
 /// shadow's own (HeldCaches) around each shadow step, so the run's workspace is left holding what
 /// it held. Besides that set, the watch keeps the shadow's state and the extent's range of q.
-/// Both are made at the first sample (the only allocations), or by prepare(). The shadow never changes the run's
-/// state or what its workspace holds for the next step.
+/// Both are made at the first sample (the only allocations), or by prepare(). The shadow never
+/// changes the run's state or what its workspace holds for the next step.
 class AccuracyWatch {
  public:
   /// Watches a run stepped on `run` with these step options, sampling at most every `every`
