@@ -31,8 +31,8 @@ double relative_residual_at(const Model& model, Workspace& ws, ConstVecRef q, Co
 void save_counters(OutArchive& a, const Workspace& ws) { a(ws.factorizations), a(ws.legendre_iterations), a(ws.parasitic); }
 void load_counters(InArchive& a, Workspace& ws) { a(ws.factorizations), a(ws.legendre_iterations), a(ws.parasitic); }
 
-// The reflection runner's workspaces: composed steps' room only for orders above 2, no DLA
-// copy of mu, the step's threads (its accuracy check's shadow steps on them too).
+// The reflection runner's workspace: composed steps' room only for orders above 2, no DLA
+// copy of mu, the step's threads (the accuracy check's shadow steps on it too).
 WorkspaceOptions reflection_workspace(const MethodChoice& c) {
   WorkspaceOptions o;
   o.backend = c.backend;
