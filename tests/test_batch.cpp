@@ -25,6 +25,7 @@
 #include <cmath>
 #include <thread>
 
+#include "output/batch_table.hpp"
 #include "run/progress.hpp"
 #include "support/bitwise_equal.hpp"
 #include "support/expect_error.hpp"
@@ -296,6 +297,80 @@ TEST(Progress, ThreadsUpdateItWithoutARace) {
     progress.finish();
   }
   unsetenv("NONHOLO_PROGRESS");
+}
+
+// The journal of finished rows (OUT.partial.csv) takes no lock per row: each thread appends its
+// rows in blocks. Eight threads add 4000 rows at once; the file must hold the header, then
+// exactly the lines the batch's table writes for the same rows (in any order), none torn or
+// interleaved.
+TEST(Journal, RowsFromManyThreadsLandWhole) {
+  const std::string out = temp("journal.csv"), journal = out + ".partial.csv";
+  constexpr int kThreads = 8, kRows = 500;
+  scenarios::BatchResult table;
+  table.varied = {"omega0"};
+  table.shown = {"x", "y", "theta"};
+  for (int i = 0; i < kThreads * kRows; ++i) {
+    scenarios::RunSummary s;
+    s.t_final = 10.0 + i;
+    s.energy_rel_err_max = 1e-7 * i;
+    s.restarts = i % 7;
+    table.rows.push_back({{0.125 * i}, {std::sqrt(double(i)), -1.0 / (i + 1), 3.0 * i}, s});
+  }
+  {
+    scenarios::Journal j(out, nullptr, false);
+    j.begin(kThreads);
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t)
+      threads.emplace_back([&, t] {
+        for (int k = 0; k < kRows; ++k) {
+          const long i = static_cast<long>(k) * kThreads + t;
+          j.add(i, t, table.rows[static_cast<std::size_t>(i)], table.varied, table.shown);
+        }
+      });
+    for (auto& t : threads) t.join();
+    j.flush();
+    std::ifstream written(journal);
+    std::vector<std::string> got;
+    for (std::string line; std::getline(written, line);) got.push_back(line);
+    std::ofstream whole(out);
+    scenarios::write_batch_csv(whole, out, table, false);
+    std::ifstream expected_file(out);
+    std::vector<std::string> expected;
+    for (std::string line; std::getline(expected_file, line);) expected.push_back(line);
+    ASSERT_EQ(got.size(), expected.size());
+    EXPECT_EQ(got.front(), expected.front());  // the header first
+    std::sort(got.begin() + 1, got.end());
+    std::sort(expected.begin() + 1, expected.end());
+    EXPECT_EQ(got, expected);
+    j.remove();
+  }
+  EXPECT_FALSE(std::filesystem::exists(journal));
+  std::remove(out.c_str());
+}
+
+// A thread's rows reach the file without a flush (what a kill -9 leaves), also while the thread
+// is busy with a long trajectory: one row added, then the file polled (the flusher writes it
+// once it is Journal::kJournalDelay old).
+TEST(Journal, RowsReachTheFileWithoutAFlush) {
+  const std::string out = temp("journal_delay.csv"), journal = out + ".partial.csv";
+  scenarios::BatchResult::Trajectory row{{1.0}, {2.0, 3.0, 4.0}, {}};
+  scenarios::Journal j(out, nullptr, false);
+  j.begin(2);
+  auto rows_in_file = [&] {
+    std::ifstream in(journal);
+    long lines = 0;
+    for (std::string line; std::getline(in, line);) ++lines;
+    return lines - 1;  // the header
+  };
+  j.add(0, 1, row, {"v"}, {"x", "y", "z"});
+  j.add(1, 1, row, {"v"}, {"x", "y", "z"});
+  EXPECT_LE(rows_in_file(), 2);
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (rows_in_file() < 2 && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));  // polled, not waited on
+  EXPECT_EQ(rows_in_file(), 2);
+  j.remove();
+  std::remove(out.c_str());
 }
 
 // Ctrl-C: the run stops between steps, the CSV ends with a whole row, the summary is printed

@@ -47,7 +47,9 @@ class Progress {
     status_shown_ = false;
   }
 
-  void add(long done) { update(done_ += done); }
+  void add(long done) {  // no shared write when nothing is drawn (a batch's threads call it)
+    if (enabled_) update(done_ += done);
+  }
   void update(long done) {
     if (!enabled_) return;
     const std::int64_t now = since_start_ns();

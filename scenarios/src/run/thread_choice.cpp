@@ -26,15 +26,14 @@ int usable_cores() {
 }
 
 ThreadChoice choose_threads(int asked, const Model& model, bool reflection, HitchMode hitch) {
-  const int limit = reflection ? max_step_threads(model) : 1;
-  const int cores = usable_cores();
   ThreadChoice c;
+  if (asked == 1) return c;  // a batch's trajectory: no system call for the cores
+  const int limit = reflection ? max_step_threads(model) : 1;
   if (asked == 0) {
     const int per_thread = hitch == HitchMode::OneForm ? kBodiesPerThread : kHolonomicBodiesPerThread;
-    if (limit > 1) c.threads = std::max(1, std::min({cores, limit, model.num_bodies() / per_thread}));
+    if (limit > 1) c.threads = std::max(1, std::min({usable_cores(), limit, model.num_bodies() / per_thread}));
     return c;
   }
-  if (asked == 1) return c;
   if (limit == 1) {
     c.warning = "--threads " + std::to_string(asked) + ": ran on one thread: threads split the reflection "
                 "method's step of a chain of knife edges and hitches (not this run's)";
@@ -44,6 +43,7 @@ ThreadChoice choose_threads(int asked, const Model& model, bool reflection, Hitc
     throw std::invalid_argument("--threads " + std::to_string(asked) + " for " + std::to_string(model.num_bodies()) +
                                 " bodies: each thread needs at least 2 bodies, so at most " + std::to_string(limit));
   c.threads = asked;
+  const int cores = usable_cores();
   if (asked > cores)
     c.warning = "--threads " + std::to_string(asked) + " is more than the " + std::to_string(cores) +
                 " cores this process may use: at every step the threads wait for each other, slower than " +
