@@ -215,7 +215,7 @@ void RunLoop::describe_run() {
   forced_ = model.has_external_force();
   summary.has_work = forced_;
   exact_work_ = forced_ && reflection_ && choice.rattle.order == 2 && !model.has_configuration_metric();
-  force_.resize(model.num_velocities());
+  if (forced_) force_.resize(model.num_velocities());  // F(t, q) for the power: forced models only
   summary.bodies = model.num_bodies();
   summary.dt = run_.dt;
   summary.has_momentum = !model.momentum_maps().empty();
