@@ -20,6 +20,7 @@
 #include <string>
 
 #include "run/team_probe.hpp"
+#include "step/chain/chain_partitions.hpp"
 #include "support/dense_reference.hpp"
 #include "support/scenes.hpp"
 
@@ -105,6 +106,28 @@ TEST(ChainThreads, TheWorkspaceSplitsTheCommonChainOnly) {
   EXPECT_EQ(max_step_threads(knives), 1);
   EXPECT_EQ(Workspace(knives, on_threads(2)).threads(), 1);
   EXPECT_EQ(max_step_threads(c.model), 6);
+}
+
+// The tail partition's band lives in the chain's own band: in the rows the split leaves unused
+// and two spare rows (chain_partitions.hpp), for the run's caches and for a second set
+// (Workspace::make_held: the accuracy check's) alike; one thread keeps no spare rows. The
+// tests around this one check that the steps on it agree with one thread's.
+TEST(ChainThreads, TheTailsBandLivesInTheChainsOwnBand) {
+  const Chain c = random_chain(40, 3);
+  EXPECT_EQ(Workspace(c.model).banded()->spare_rows(), 0);
+  for (int threads : {2, 3, 4}) {
+    Workspace ws(c.model, on_threads(threads));
+    HeldCaches held = ws.make_held();
+    for (int side = 0; side < 2; ++side) {
+      sparse::BandedLdlt& band = *ws.banded();
+      const detail::ChainPartitions& cp = *ws.partitions();
+      EXPECT_EQ(band.spare_rows(), detail::kTailSpareRows);
+      EXPECT_EQ(cp.tail->row(0), band.row(3 * cp.tail_first)) << threads << " threads";
+      EXPECT_EQ(cp.tail->row(cp.tail->size()), band.row(band.size() + band.spare_rows()));
+      EXPECT_EQ(cp.tail->numeric_state(), nullptr);
+      ws.swap_held(held);
+    }
+  }
 }
 
 // One step from the same states along a trajectory: q bit for bit (the drift is the same

@@ -29,6 +29,7 @@ BandedLdlt::BandedLdlt(const SymmetricPattern& pattern)
     : Factorization(pattern.size), kd_(half_bandwidth(pattern)) {
   check_pattern(pattern);
   fill_buffer(band_, static_cast<std::size_t>(pattern.size) * (kd_ + 1), 0.0);
+  data_ = band_.data();
   position_.resize(pattern.nnz());
   for (int j = 0; j < pattern.size; ++j)
     for (int s = pattern.col_ptr[j]; s < pattern.col_ptr[j + 1]; ++s) {
@@ -43,11 +44,25 @@ BandedLdlt::BandedLdlt(const SymmetricPattern& pattern)
       if (!inside[static_cast<std::size_t>(r) * (kd_ + 1) + t]) outside_.push_back(r * (kd_ + 1) + t);
 }
 
-BandedLdlt::BandedLdlt(int size, int kd) : Factorization(size), kd_(kd) {
-  if (size < 0 || kd < 0 || kd > kBandedMaxBandwidth)
+BandedLdlt::BandedLdlt(int size, int kd) : BandedLdlt(size, kd, 0) {}
+
+BandedLdlt::BandedLdlt(int size, int kd, int spare_rows) : Factorization(size), kd_(kd), spare_rows_(spare_rows) {
+  if (size < 0 || kd < 0 || kd > kBandedMaxBandwidth || spare_rows < 0)
     throw std::invalid_argument("BandedLdlt: size " + std::to_string(size) + " and half-bandwidth " +
-                                std::to_string(kd) + " (at most " + std::to_string(kBandedMaxBandwidth) + ")");
-  fill_buffer(band_, static_cast<std::size_t>(size) * (kd_ + 1), 0.0);
+                                std::to_string(kd) + " (at most " + std::to_string(kBandedMaxBandwidth) +
+                                "), spare rows " + std::to_string(spare_rows));
+  fill_buffer(band_, static_cast<std::size_t>(size + spare_rows) * (kd_ + 1), 0.0);
+  data_ = band_.data();
+  work_.assign(kd_ + 1, 0.0);
+  has_pattern_ = false;
+}
+
+BandedLdlt::BandedLdlt(int size, int kd, double* storage) : Factorization(size), kd_(kd), owned_(false) {
+  if (size < 0 || kd < 0 || kd > kBandedMaxBandwidth || (!storage && size > 0))
+    throw std::invalid_argument("BandedLdlt: size " + std::to_string(size) + " and half-bandwidth " +
+                                std::to_string(kd) + " (at most " + std::to_string(kBandedMaxBandwidth) +
+                                ") in the caller's storage (not null)");
+  data_ = storage;
   work_.assign(kd_ + 1, 0.0);
   has_pattern_ = false;
 }

@@ -279,7 +279,8 @@ class alignas(128) Workspace {
   RattleOptions options_;
   Status report_non_finite_one_forms();
   void set_up_threads(int threads);
-  std::unique_ptr<sparse::Factorization> new_factor(sparse::Backend backend) const;
+  // spare_rows: room after a chain's band for its tail partition's (ChainPartitions).
+  std::unique_ptr<sparse::Factorization> new_factor(sparse::Backend backend, int spare_rows) const;
   // " (row r is <label>)" for a labelled row of mu or C, "" otherwise; no allocation.
   const char* row_note(int row);
   char row_note_[256] = "";

@@ -60,7 +60,9 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   }
   sparse::Backend backend = options.backend;
   if (backend == sparse::Backend::Auto && model.is_chain()) backend = sparse::Backend::Banded;
-  factor_ = new_factor(backend);
+  // A chain split over threads keeps its tail partition's band in the last rows of its own,
+  // which the split leaves unused, and two more (the tail's copy of its left separator's rows).
+  factor_ = new_factor(backend, options.threads > 1 ? detail::kTailSpareRows : 0);
   if (factor_ && factor_->backend() == sparse::Backend::Banded) banded_ = static_cast<sparse::BandedLdlt*>(factor_.get());
   if (fused()) sparse::zero_buffer(chain_sincos, 2 * model.num_bodies());
   if (fused() && model.element_set()->hitched_chain) sparse::zero_buffer(chain_sincos_prev, 2 * model.num_bodies());
@@ -73,10 +75,10 @@ Workspace::~Workspace() = default;
 
 // A chain's band is set up from its layout: its C's pattern and index map (Model::gram) are not
 // built unless another backend is forced.
-std::unique_ptr<sparse::Factorization> Workspace::new_factor(sparse::Backend backend) const {
+std::unique_ptr<sparse::Factorization> Workspace::new_factor(sparse::Backend backend, int spare_rows) const {
   const int m = model_->num_one_forms();
   if (m > 0 && model_->is_chain() && backend == sparse::Backend::Banded)
-    return std::make_unique<sparse::BandedLdlt>(m, model_->element_set()->chain_bandwidth);
+    return std::make_unique<sparse::BandedLdlt>(m, model_->element_set()->chain_bandwidth, spare_rows);
   if (m > 0) return sparse::make_factorization(backend, model_->gram().pattern());
   return nullptr;
 }
@@ -88,10 +90,11 @@ HeldCaches& HeldCaches::operator=(HeldCaches&&) noexcept = default;
 
 HeldCaches Workspace::make_held() const {
   HeldCaches h;
-  if (factor_) h.factor_ = new_factor(factor_->backend());
+  if (factor_) h.factor_ = new_factor(factor_->backend(), banded_ ? banded_->spare_rows() : 0);
   if (partitions_)
     h.partitions_ = std::make_unique<detail::ChainPartitions>(
-        model_->num_bodies(), partitions_->parts, static_cast<int>(model_->element_set()->thrusts.size()));
+        model_->num_bodies(), partitions_->parts, static_cast<int>(model_->element_set()->thrusts.size()),
+        static_cast<sparse::BandedLdlt*>(h.factor_.get()));
   for (auto [mine, theirs] : {std::pair{&mu_q_, &h.mu_q_}, std::pair{&mu_values, &h.mu_values_},
                               std::pair{&chain_sincos, &h.chain_sincos_}, std::pair{&chain_sincos_prev, &h.chain_sincos_prev_}})
     sparse::zero_buffer(*theirs, mine->size());
@@ -136,7 +139,8 @@ void Workspace::set_up_threads(int threads) {
   if (threads > detail::ThreadPool::kMaxTeam)
     throw std::invalid_argument("WorkspaceOptions::threads = " + std::to_string(threads) + ": at most " +
                                 std::to_string(detail::ThreadPool::kMaxTeam) + " threads run one chain");
-  partitions_ = std::make_unique<detail::ChainPartitions>(bodies, threads, static_cast<int>(set->thrusts.size()));
+  partitions_ =
+      std::make_unique<detail::ChainPartitions>(bodies, threads, static_cast<int>(set->thrusts.size()), banded_);
   detail::ThreadPool::reserve(threads);  // the team's workers, kept for the process (thread_team.hpp)
   team_ = threads;
 }

@@ -24,7 +24,7 @@ constexpr double kPlainWeight = 1.5;
 
 }  // namespace
 
-ChainPartitions::ChainPartitions(int bodies, int count, int thrusts) : parts(count) {
+ChainPartitions::ChainPartitions(int bodies, int count, int thrusts, sparse::BandedLdlt* band) : parts(count) {
   // Plain partitions (the first; the last, from the tail) take kPlainWeight times a bordered
   // one's bodies.
   std::vector<double> weight(parts, 1.0);
@@ -45,7 +45,12 @@ ChainPartitions::ChainPartitions(int bodies, int count, int thrusts) : parts(cou
   border.assign(parts > 2 ? 2 * static_cast<std::size_t>(3 * tail_first) : 0, 0.0);
   if (parts > 1) {
     const int n = bodies - tail_first;
-    tail = std::make_unique<sparse::BandedLdlt>(3 * n, kChainBandwidth);
+    // Its rows: the band's from 3 tail_first (those of its left separator, two before, are the
+    // head partition's) to 3 bodies = the band's size + 2 (a hitched chain has 3 bodies - 2 rows).
+    const bool inside = band && band->bandwidth() == kChainBandwidth &&
+                        band->size() + band->spare_rows() >= 3 * bodies && 3 * tail_first <= band->size();
+    tail = inside ? std::make_unique<sparse::BandedLdlt>(3 * n, kChainBandwidth, band->row(3 * tail_first))
+                  : std::make_unique<sparse::BandedLdlt>(3 * n, kChainBandwidth);
     tail_x.assign(3 * static_cast<std::size_t>(n), 0.0);
   }
   part.assign(parts, Part{});

@@ -7,7 +7,8 @@
 // carried as a border (their L against each of its rows, 2 per row); the separators' Schur
 // complement, block tridiagonal with 2x2 blocks, is factorised by one thread. The last
 // partition is factorised from the chain's tail instead (chain_partitions_tail.cpp), in a band
-// of its own and without a border: for two threads, a factorisation from both ends.
+// of its own order (in the chain band's last rows) and without a border: for two threads, a
+// factorisation from both ends.
 #include <nonholo/rattle.hpp>
 
 #include <memory>
@@ -22,10 +23,18 @@ namespace nonholo::detail {
 // The common chain's band: rows 3b (knife edge), 3b+1, 3b+2 (hitch b -> b+1), half-bandwidth 4.
 inline constexpr int kChainBandwidth = 4;
 
+// The rows a chain's band holds beyond its own for the tail partition's band to live in it:
+// the tail's rows of the band are unused while the chain is split (the tail is factorised in
+// its own order), and the tail's band has two rows more (its copy of its left separator's).
+inline constexpr int kTailSpareRows = 2;
+
 struct ChainPartitions {
   // `parts` partitions of at least 2 bodies each (callers check: WorkspaceOptions::threads),
-  // for a chain with `thrusts` thrusts.
-  ChainPartitions(int bodies, int parts, int thrusts);
+  // for a chain with `thrusts` thrusts. The tail's band lives in `band`'s last rows when it
+  // has kTailSpareRows spare rows (60 MB less for a million-body chain on 2 threads), else in
+  // storage of its own. `band` serves only one of the two at a time: a serial factorisation
+  // overwrites the tail's rows, and marks the factorisation not partitioned.
+  ChainPartitions(int bodies, int parts, int thrusts, sparse::BandedLdlt* band = nullptr);
 
   int parts;
   std::vector<int> first;       // parts + 1 body boundaries

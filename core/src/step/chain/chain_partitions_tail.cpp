@@ -2,7 +2,8 @@
 // (chain_partitions.hpp). Read backwards, its bodies form a chain of the same kind: reversed
 // body k = N-1-b carries body b's knife edge and, as its hitch to k+1, the hitch b-1 -> b with
 // both rows negated. So its band has the first partition's shape (no border; its left
-// separator at the end of its sweep), in a band of its own (ChainPartitions::tail). With two
+// separator at the end of its sweep), in a band of its own order (ChainPartitions::tail, kept in
+// the chain's band's last rows, which the split leaves unused). With two
 // threads partition 0 works from the head and this one from the tail: one 2x2 system where
 // they meet.
 #include <algorithm>

@@ -75,23 +75,34 @@ class BandedLdlt final : public Factorization {
   /// eliminate_row(): a chain of elements writes its rows in closed form), with no pattern:
   /// factorize() and factorize_in_place() then report InvalidInput.
   BandedLdlt(int size, int kd);
+  /// The same with room for `spare_rows` more rows after its last (storage_after()), for a
+  /// band that another one lives in (the chain's tail partition: chain_partitions.hpp).
+  BandedLdlt(int size, int kd, int spare_rows);
+  /// A band in storage the caller owns (size * (kd + 1) doubles, which must outlive it), filled
+  /// row by row as above; numeric_state() is then nullptr (not saved in checkpoints).
+  BandedLdlt(int size, int kd, double* storage);
 
   FactorStatus factorize(const double* c_values, double min_pivot_ratio) override;
   /// C's values written straight into the band (GramAssembler::assemble with slot_positions()):
   /// no copy of C, no c_values buffer (96 MB for a million-body chain).
   ///@{
-  double* values_in_place() override { return band_.data(); }
+  double* values_in_place() override { return data_; }
   const int* slot_positions() const override { return position_.data(); }
   FactorStatus factorize_in_place(double min_pivot_ratio) override;
   ///@}
   FactorStatus solve(const double* b, double* x) override;
   Backend backend() const override { return Backend::Banded; }  ///< Backend::Banded
-  std::vector<double>* numeric_state() override { return &band_; }  ///< the band
+  std::vector<double>* numeric_state() override { return owned_ ? &band_ : nullptr; }  ///< the band
 
   int bandwidth() const { return kd_; }  ///< kd, the half-bandwidth
   int stride() const { return kd_ + 1; }  ///< entries per row of the band
   /// Row r of the band: entry r - kd + t at [t], the diagonal at [kd].
-  double* row(int r) { return band_.data() + static_cast<std::ptrdiff_t>(r) * (kd_ + 1); }
+  double* row(int r) { return data_ + static_cast<std::ptrdiff_t>(r) * (kd_ + 1); }
+  /// Rows this band's own storage holds after its last (the spare rows), and where they start.
+  ///@{
+  int spare_rows() const { return spare_rows_; }
+  double* storage_after() { return row(size()); }
+  ///@}
 
   // --- row by row (fused steps) ---------------------------------------------------------
   /// Starts a factorisation whose rows the caller fills into row(r) (every band entry of the
@@ -213,7 +224,10 @@ class BandedLdlt final : public Factorization {
   FactorStatus no_pattern();
   int kd_;
   bool has_pattern_ = true;
-  std::vector<double> band_;
+  std::vector<double> band_;  // empty for a band in the caller's storage
+  double* data_ = nullptr;     // band_.data(), or the caller's storage
+  int spare_rows_ = 0;
+  bool owned_ = true;
   std::vector<int> position_;  // slot of C's pattern -> index in band_
   std::vector<int> outside_;   // band entries outside the pattern (zeroed before each factorisation)
   std::vector<double> work_;   // kd entries: row r times D, the elimination's running row
