@@ -75,8 +75,8 @@ class BandedLdlt final : public Factorization {
   /// eliminate_row(): a chain of elements writes its rows in closed form), with no pattern:
   /// factorize() and factorize_in_place() then report InvalidInput.
   BandedLdlt(int size, int kd);
-  /// The same with room for `spare_rows` more rows after its last (storage_after()), for a
-  /// band that another one lives in (the chain's tail partition: chain_partitions.hpp).
+  /// The same with room for `spare_rows` more rows after its last (row(size()) onwards), for
+  /// a band that another one lives in (the chain's tail partition: chain_partitions.hpp).
   BandedLdlt(int size, int kd, int spare_rows);
   /// A band in storage the caller owns (size * (kd + 1) doubles, which must outlive it), filled
   /// row by row as above; numeric_state() is then nullptr (not saved in checkpoints).
@@ -98,11 +98,8 @@ class BandedLdlt final : public Factorization {
   int stride() const { return kd_ + 1; }  ///< entries per row of the band
   /// Row r of the band: entry r - kd + t at [t], the diagonal at [kd].
   double* row(int r) { return data_ + static_cast<std::ptrdiff_t>(r) * (kd_ + 1); }
-  /// Rows this band's own storage holds after its last (the spare rows), and where they start.
-  ///@{
+  /// Rows this band's own storage holds after its last (the spare rows, from row(size())).
   int spare_rows() const { return spare_rows_; }
-  double* storage_after() { return row(size()); }
-  ///@}
 
   // --- row by row (fused steps) ---------------------------------------------------------
   /// Starts a factorisation whose rows the caller fills into row(r) (every band entry of the
