@@ -28,9 +28,9 @@ void write_batch_csv(std::ofstream& out, const std::string& path, const BatchRes
 // for appending, once its oldest row is kJournalDelay old or the block is full; a flusher thread
 // writes the blocks of threads busy with long trajectories. No lock shared by the threads and a
 // system call per block, not per row (a single sleigh's row cost as much as its 10 steps,
-// 5.5 us); whole rows only (a full disk aside, whose short write may end one mid-row). A kill loses the rows of about the last
-// 2 kJournalDelay at most. flush() writes the rest once the threads are done; the file is
-// removed once the output is written.
+// 5.5 us); whole rows only (a full disk aside, whose short write may end one mid-row). A kill
+// loses the rows of about the last 2 kJournalDelay at most. flush() writes the rest once the
+// threads are done; the file is removed once the output is written.
 class Journal {
  public:
   static constexpr double kJournalDelay = 0.1;  // seconds a finished row may wait in memory
