@@ -6,6 +6,9 @@
 
 #include <cmath>
 #include <functional>
+#include <string>
+#include <thread>
+#include <vector>
 
 #include "support/expect_error.hpp"
 
@@ -182,6 +185,44 @@ TEST(ModelBuilder, EveryKindOfNameIsFoundAgain) {
   for (const char* fresh : {"x8", "x6", "x70", "x007", "8", "x99999998", "x1234567890", "y8z", "w3000_"})
     b.add_body({fresh}, Eigen::Matrix<double, 1, 1>(1.0));
   EXPECT_EQ(b.build().num_coordinates(), static_cast<int>(2 * kinds.size()) + 3000);
+}
+
+// The model keeps its names packed and makes the lists of strings on first use: every name reads
+// back as given (short, long, numbered), one by one or as the lists, from copies too, and threads
+// asking for the list at once all get the same one.
+TEST(ModelBuilder, NamesReadBackPackedAndAsLists) {
+  ModelBuilder b;
+  const std::string longer = "a coordinate name longer than a short string's buffer";
+  b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
+  b.add_body({longer, "z1"}, Eigen::Matrix2d::Identity());
+  for (int k = 0; k < 50; ++k)
+    b.add_planar_body({"x" + std::to_string(k + 10), "y" + std::to_string(k + 10), "t" + std::to_string(k + 10)},
+                      1.0, 1.0);
+  // Runs broken: numbers that differ within a body, a leading zero, a gap, a new run after it.
+  const std::vector<std::vector<std::string>> odd{
+      {"x60", "y60", "t61"}, {"x07", "y07", "t07"}, {"x70", "y70", "t70"}, {"x71", "y71", "t71"}, {"7", "8", "9"}};
+  for (const auto& names : odd) b.add_planar_body({names[0], names[1], names[2]}, 1.0, 1.0);
+  b.add_one_form({0, 1, 2});
+  b.one_form_values(kUnit);
+  const Model m = b.build();
+  std::vector<std::string> expected{"x", "y", "theta", longer, "z1"};
+  for (int k = 0; k < 50; ++k)
+    for (const char* stem : {"x", "y", "t"}) expected.push_back(stem + std::to_string(k + 10));
+  for (const auto& names : odd) expected.insert(expected.end(), names.begin(), names.end());
+  ASSERT_EQ(m.num_configuration(), static_cast<int>(expected.size()));
+  for (int i = 0; i < m.num_configuration(); ++i) {
+    EXPECT_EQ(m.coordinate_name(i), expected[static_cast<std::size_t>(i)]);
+    EXPECT_EQ(m.velocity_name(i), expected[static_cast<std::size_t>(i)]);
+  }
+  const Model copy = m;  // NOLINT: a copy on purpose
+  std::vector<const std::vector<std::string>*> seen(4, nullptr);
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < seen.size(); ++t) threads.emplace_back([&, t] { seen[t] = &copy.coordinate_names(); });
+  for (auto& t : threads) t.join();
+  for (const auto* list : seen) EXPECT_EQ(list, seen[0]);
+  EXPECT_EQ(*seen[0], expected);
+  EXPECT_EQ(m.coordinate_names(), expected);
+  EXPECT_EQ(m.velocity_names(), expected);
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // The accuracy check's memory against its computed figure: the peak resident memory of a
 // million-body chain's run (the `nonholo` command line in a child process, 2 steps) with the check
 // on (the default) and off. The check holds the shadow's state, its HeldCaches (the band of C, mu,
-// the sines and cosines, the one-form key) and the range of q the extent is taken over; its
+// the sines and cosines, the one-form key; of these a one-form step writes the band, one set of
+// sines and the key) and the range of q the extent is taken over; its
 // scratch is the run's workspace's (accuracy.hpp). A second workspace, as the check had before,
 // would add about 0.64 GB more.
 #include <nonholo/workspace.hpp>
@@ -58,14 +59,18 @@ TEST(RunMemory, TheAccuracyCheckHoldsItsComputedFigure) {
   Workspace ws(model);
   const double nq = model.num_configuration(), nv = model.num_velocities(), m = model.num_one_forms();
   const double band = m * (ws.banded() ? ws.banded()->bandwidth() + 1 : 0);
-  const double held = band + model.num_one_form_values() + 2 * 2 * model.num_bodies() + nq;
+  // What a one-form step writes of the shadow's HeldCaches: the band, one set of sines and cosines
+  // and the one-form key. Its mu and second set of sines (holonomic steps') are zeros the kernel
+  // has not given pages yet (sparse::zero_bytes): no memory until written.
+  const double held = band + 2 * model.num_bodies() + nq;
   const double state = nq + nv + m + nv, range = 2 * nq;
   const double figure = 8.0 * (held + state + range);
   const double measured = with - without;
   std::printf("peak %.0f MB with the check, %.0f MB without: %.0f MB for a figure of %.0f MB\n", with / 1e6,
               without / 1e6, measured / 1e6, figure / 1e6);
-  // Measured 407.8 MB for 408.0 (2-core AMD, huge pages): each buffer's pages round the peak by
-  // at most a huge page (2 MB, 7 buffers) either way.
+  // Measured 407.8 MB for 408.0 (2-core AMD, huge pages) when the held mu and sines were filled
+  // with zeros at set-up; 304 MB for 304 without (2026-11-29): each buffer's pages round the peak
+  // by at most a huge page (2 MB, 7 buffers) either way.
   EXPECT_GT(measured, 0.9 * figure);
   EXPECT_LT(measured, 1.1 * figure);
 }

@@ -1,5 +1,6 @@
 // The linear algebra behind C = mu M^-1 mu^T: the index-map assembly against a dense
 // product, the dense and CHOLMOD factorisations against each other, and the pivot checks.
+#include <nonholo/sparse/big_buffer.hpp>
 #include <nonholo/sparse/factorization.hpp>
 #include <nonholo/sparse/gram_assembler.hpp>
 #include <nonholo/rattle.hpp>
@@ -10,9 +11,14 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <cstring>
 #include <memory>
 #include <random>
 #include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 #include "support/dense_reference.hpp"
 #include "support/random_model.hpp"
@@ -330,4 +336,50 @@ TEST(Factorization, ABandWithoutAPatternIsFilledByItsOwnerOnly) {
   EXPECT_THROW(BandedLdlt(6, kBandedMaxBandwidth + 1), std::invalid_argument);
   EXPECT_THROW(BandedLdlt(-1, 2), std::invalid_argument);
 }
+
+// zero_bytes hands whole pages back to the kernel and writes only the ends: every byte reads zero
+// afterwards, dirty or not, whatever the buffer's alignment and size, and nothing outside it is
+// touched (the allocator's words around a buffer included).
+TEST(BigBuffer, ZeroBytesZeroesExactlyTheBuffer) {
+  for (const std::size_t bytes : {std::size_t{0}, std::size_t{1}, std::size_t{4095}, std::size_t{65536},
+                                  std::size_t{3} << 20, (std::size_t{5} << 20) + 123}) {
+    for (const std::size_t offset : {std::size_t{0}, std::size_t{8}, std::size_t{4093}}) {
+      std::vector<unsigned char> memory(bytes + offset + 2 * 4096, 0xAB);
+      unsigned char* data = memory.data() + 4096 + offset;
+      zero_bytes(data, bytes);
+      std::size_t wrong = 0;
+      for (std::size_t i = 0; i < memory.size(); ++i) {
+        const bool inside = &memory[i] >= data && &memory[i] < data + bytes;
+        wrong += memory[i] != (inside ? 0 : 0xAB);
+      }
+      EXPECT_EQ(wrong, 0u) << bytes << " bytes at offset " << offset;
+      // Written again after the pages went back: they read what was written.
+      if (bytes > 0) {
+        data[bytes / 2] = 7;
+        EXPECT_EQ(data[bytes / 2], 7);
+      }
+    }
+  }
+  Eigen::VectorXd v = Eigen::VectorXd::Constant(1 << 20, 3.0);  // 8 MB, dirty
+  zero_buffer(v, v.size());
+  EXPECT_EQ(v.cwiseAbs().maxCoeff(), 0.0);
+#if defined(__linux__)
+  // Fresh memory with some pages written (resident) among untouched ones: both kinds of run.
+  constexpr std::size_t kPage = 4096, kPages = 64;
+  void* map = mmap(nullptr, kPages * kPage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  ASSERT_NE(map, MAP_FAILED);
+  auto* base = static_cast<unsigned char*>(map);
+  for (const std::size_t page : {0, 1, 2, 3, 10, 20, 21, 22, 23, 40, 63}) std::memset(base + page * kPage, 0xAB, kPage);
+  zero_bytes(base + 100, (kPages - 1) * kPage);
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < kPages * kPage; ++i) {
+    const bool inside = i >= 100 && i < 100 + (kPages - 1) * kPage;
+    const bool written = i / kPage == 0 || i / kPage == 63;  // the pages the ends are on
+    wrong += base[i] != (inside ? 0 : written ? 0xAB : 0);
+  }
+  EXPECT_EQ(wrong, 0u);
+  munmap(map, kPages * kPage);
+#endif
+}
+
 }  // namespace nonholo::sparse

@@ -17,8 +17,10 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 /// The library: models (ModelBuilder, Model), the reflection integrator (step()) with its
@@ -29,7 +31,42 @@
 namespace nonholo {
 namespace detail {
 struct ElementSet;  // core/src/model/element_set.hpp
-}
+
+/// Coordinate names, compactly: a body whose names are its predecessor's with the number one
+/// higher ("x8", "y8", "theta8" after "x7", "y7", "theta7") extends a run and costs nothing; other
+/// names are packed into one buffer of characters. (A std::string each would take 32 bytes and
+/// often a block of its own: 96 MB for a million-body chain's 3·10⁶ names.)
+class NameStore {
+ public:
+  std::size_t size() const { return size_; }
+  std::string operator[](std::size_t i) const;
+  /// Appends one body's k names; std::length_error past 4 GiB of characters in all.
+  void push_body(const std::string* names, int k);
+  /// n of a name "<prefix><n>" written as std::to_string writes n (at most 8 digits, no leading
+  /// zero), with the prefix's length; -1 for any other name. (ModelBuilder looks such names up
+  /// by number too.)
+  static int number_of(std::string_view name, std::size_t& prefix);
+
+ private:
+  // Names [first, first + count) are either literal names (k == 0: literals_ from `literal`) or
+  // a run of bodies of k names each, name j of body b being prefix j (literals_ from `literal`)
+  // followed by the decimal number + b.
+  struct Segment {
+    std::size_t first = 0, count = 0;
+    std::uint32_t literal = 0, k = 0;
+    std::int64_t number = 0;
+  };
+  std::string_view literal(std::size_t i) const {
+    const std::size_t begin = i == 0 ? 0 : ends_[i - 1];
+    return {chars_.data() + begin, ends_[i] - begin};
+  }
+  void push_literal(std::string_view name);
+  std::vector<char> chars_;
+  std::vector<std::uint32_t> ends_;  // one past each literal's last character
+  std::vector<Segment> segments_;
+  std::size_t size_ = 0;
+};
+}  // namespace detail
 
 /// @enum BodyKind
 /// What a body's coordinates are.
@@ -88,10 +125,22 @@ class Model {
   int num_one_form_values() const { return pattern_.nnz(); }  ///< nnz(mu): the values one_form_values() fills
   const Body& body(int b) const { return bodies_[b]; }  ///< body b's place in q and in the velocities
   /// Names of the n_q configuration entries (x, y, theta; qw0, qx0, ..., x0, y0) ...
-  const std::vector<std::string>& coordinate_names() const { return names_; }
+  const std::vector<std::string>& coordinate_names() const;
   /// ... and of the n_v velocity entries (the same names for planar and general bodies; wx0,
   /// wy0, wz0, vx0, vy0 for a rigid body): messages about a column of mu name these.
-  const std::vector<std::string>& velocity_names() const { return velocity_names_.empty() ? names_ : velocity_names_; }
+  const std::vector<std::string>& velocity_names() const {
+    return velocity_names_.empty() ? coordinate_names() : velocity_names_;
+  }
+  /// The model keeps its coordinate names compactly (detail::NameStore: a generated chain's take
+  /// no memory); the lists above are made as strings on their first call (once, thread-safe;
+  /// shared by the model's copies), which a run that writes no names never makes. These read one
+  /// name without making the list.
+  ///@{
+  std::string coordinate_name(int i) const { return names_[static_cast<std::size_t>(i)]; }
+  std::string velocity_name(int i) const {
+    return velocity_names_.empty() ? names_[static_cast<std::size_t>(i)] : velocity_names_[static_cast<std::size_t>(i)];
+  }
+  ///@}
 
   /// 3-D rigid bodies (nonholo/rigid_body.hpp), in body order.
   ///@{
@@ -180,7 +229,9 @@ class Model {
 
   std::vector<Body> bodies_;
   int num_configuration_ = 0;
-  std::vector<std::string> names_;
+  detail::NameStore names_;
+  struct LazyNames;  // model.cpp: a once_flag and names_ as strings; shared by copies of the model
+  std::shared_ptr<LazyNames> name_list_;
   std::vector<std::string> velocity_names_;  // empty unless some body is rigid
   std::vector<RigidBlock> rigid_;
   sparse::BlockDiagonal mass_, inverse_mass_;
@@ -188,6 +239,7 @@ class Model {
   struct LazyGram;  // model.cpp: a once_flag and the assembler; shared by copies of the model
   std::shared_ptr<LazyGram> gram_;
   void new_gram();  // a fresh LazyGram (ModelBuilder::finish), built now unless is_chain()
+  void new_name_list();  // a fresh LazyNames (ModelBuilder::finish)
   OneFormValues values_;
   OneFormBias bias_;
   Potential potential_;

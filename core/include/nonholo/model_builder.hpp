@@ -140,7 +140,7 @@ class ModelBuilder {
   std::vector<std::uint64_t> name_slots_;
   std::size_t hashed_names_ = 0;
   int find_name(const std::string& name) const;  // its coordinate, or -1
-  void insert_name(int coordinate);
+  void insert_name(int coordinate, const std::string& name);  // name: the coordinate's
   int body_of_coordinate(int coordinate) const;
   void check_names(int index, const std::string* names, int k) const;
   // Appends a validated body: its names, its mass block, its offsets.

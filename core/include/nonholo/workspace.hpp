@@ -247,8 +247,9 @@ class alignas(128) Workspace {
   /// A second trajectory on this workspace (the accuracy check's shadow, accuracy.hpp): what a
   /// step leaves for the next one of the same trajectory (HeldCaches) swapped in for its steps
   /// and out after them, every other buffer shared. make_held() sizes a set like this
-  /// workspace's, holding nothing yet; swap_held() exchanges it with the workspace's own, in
-  /// constant time (pointers and flags).
+  /// workspace's, holding nothing yet (it shares the workspace's scratch, a split chain's tail
+  /// vector included: it must not outlive the workspace); swap_held() exchanges it with the
+  /// workspace's own, in constant time (pointers and flags).
   ///@{
   HeldCaches make_held() const;
   void swap_held(HeldCaches& other) noexcept;

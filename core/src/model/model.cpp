@@ -2,7 +2,10 @@
 // (quaternions turned on rigid bodies), the applied force, and the products mu x and mu^T lambda.
 #include <nonholo/model.hpp>
 
+#include <algorithm>
+#include <cstdint>
 #include <mutex>
+#include <stdexcept>
 
 #include "model/element_set.hpp"
 #include "model/quaternion.hpp"
@@ -25,6 +28,94 @@ void Model::new_gram() {
   gram_ = std::make_shared<LazyGram>();  // its own: a builder's copies share no draft's
   if (!is_chain()) gram();
 }
+
+struct Model::LazyNames {
+  std::once_flag once;
+  std::vector<std::string> names;
+};
+
+const std::vector<std::string>& Model::coordinate_names() const {
+  static const std::vector<std::string> none;  // a Model() that ModelBuilder never finished
+  if (!name_list_) return none;
+  std::call_once(name_list_->once, [this] {
+    auto& list = name_list_->names;
+    list.reserve(names_.size());
+    for (std::size_t i = 0; i < names_.size(); ++i) list.emplace_back(names_[i]);
+  });
+  return name_list_->names;
+}
+
+void Model::new_name_list() { name_list_ = std::make_shared<LazyNames>(); }
+
+namespace detail {
+int NameStore::number_of(std::string_view name, std::size_t& prefix) {
+  std::size_t start = name.size();
+  while (start > 0 && name[start - 1] >= '0' && name[start - 1] <= '9') --start;
+  const std::size_t digits = name.size() - start;
+  if (digits == 0 || digits > 8 || (digits > 1 && name[start] == '0')) return -1;
+  int n = 0;
+  for (std::size_t i = start; i < name.size(); ++i) n = 10 * n + (name[i] - '0');
+  prefix = start;
+  return n;
+}
+
+std::string NameStore::operator[](std::size_t i) const {
+  const auto after = std::upper_bound(segments_.begin(), segments_.end(), i,
+                                      [](std::size_t at, const Segment& s) { return at < s.first; });
+  const Segment& s = *(after - 1);
+  const std::size_t j = i - s.first;
+  if (s.k == 0) return std::string(literal(s.literal + j));
+  std::string name(literal(s.literal + j % s.k));
+  name += std::to_string(s.number + static_cast<std::int64_t>(j / s.k));
+  return name;
+}
+
+void NameStore::push_literal(std::string_view name) {
+  if (name.size() > UINT32_MAX - chars_.size())
+    throw std::length_error("coordinate names: more than 4 GiB of characters in all");
+  chars_.insert(chars_.end(), name.begin(), name.end());
+  ends_.push_back(static_cast<std::uint32_t>(chars_.size()));
+}
+
+void NameStore::push_body(const std::string* names, int k) {
+  if (k <= 0) return;
+  // The body's number: every name "<prefix><n>" with the same n, else -1.
+  std::int64_t number = -1;
+  std::size_t prefix[64];
+  if (k <= 64)
+    for (int i = 0; i < k; ++i) {
+      const std::int64_t n = number_of(names[i], prefix[i]);
+      if (n < 0 || (i > 0 && n != number)) {
+        number = -1;
+        break;
+      }
+      number = n;
+    }
+  if (number >= 0 && !segments_.empty()) {  // the next body of the last run?
+    Segment& last = segments_.back();
+    bool same = last.k == static_cast<std::uint32_t>(k) && last.number + static_cast<std::int64_t>(last.count / last.k) == number;
+    for (int i = 0; same && i < k; ++i)
+      same = literal(last.literal + static_cast<std::size_t>(i)) == std::string_view(names[i]).substr(0, prefix[i]);
+    if (same) {
+      last.count += static_cast<std::size_t>(k);
+      size_ += static_cast<std::size_t>(k);
+      return;
+    }
+  }
+  if (number >= 0) {  // a new run: its prefixes as literals
+    segments_.push_back({size_, static_cast<std::size_t>(k), static_cast<std::uint32_t>(ends_.size()),
+                         static_cast<std::uint32_t>(k), number});
+    for (int i = 0; i < k; ++i) push_literal(std::string_view(names[i]).substr(0, prefix[i]));
+  } else {
+    if (segments_.empty() || segments_.back().k != 0)
+      segments_.push_back({size_, 0, static_cast<std::uint32_t>(ends_.size()), 0, 0});
+    segments_.back().count += static_cast<std::size_t>(k);
+    for (int i = 0; i < k; ++i) push_literal(names[i]);
+  }
+  size_ += static_cast<std::size_t>(k);
+}
+
+}  // namespace detail
 
 const std::string& Model::row_label(int r) const {
   static const std::string none;

@@ -45,12 +45,11 @@ void check_structural_rank(const Model& model, const std::vector<int>& row_ptr, 
       detail::structural_deficiency(model.num_one_forms(), model.mass().size(), row_ptr, col_idx);
   if (d.empty()) return;
   constexpr std::size_t kNamed = 4;
-  const auto& names = model.velocity_names();
   std::ostringstream os;
   os << "dependent-one-forms: " << d.rows.size() << " one-form rows touch only the " << d.columns.size()
      << " velocity coordinates ";
   for (std::size_t i = 0; i < std::min(d.columns.size(), 2 * kNamed); ++i)
-    os << (i ? ", " : "") << names[static_cast<std::size_t>(d.columns[i])];
+    os << (i ? ", " : "") << model.velocity_name(d.columns[i]);
   if (d.columns.size() > 2 * kNamed) os << " and " << d.columns.size() - 2 * kNamed << " more";
   os << ", so at most " << d.columns.size() << " of them can be independent at any configuration and "
      << d.rows.size() - d.columns.size() << " are redundant: ";
@@ -139,9 +138,9 @@ void ModelBuilder::add_checked_body(const std::string* names, int k, const Eigen
                                     BodyKind kind) {
   const int first = static_cast<int>(draft_.names_.size());
   draft_.bodies_.push_back({draft_.mass_.size(), k, first, k, kind, 0});
-  draft_.names_.insert(draft_.names_.end(), names, names + k);
+  draft_.names_.push_body(names, k);
   if (!draft_.velocity_names_.empty()) draft_.velocity_names_.insert(draft_.velocity_names_.end(), names, names + k);
-  for (int i = 0; i < k; ++i) insert_name(first + i);
+  for (int i = 0; i < k; ++i) insert_name(first + i, names[i]);
   draft_.mass_.add_block(block);
   draft_.num_configuration_ += k;
 }
@@ -163,19 +162,10 @@ void ModelBuilder::check_names(int index, const std::string* names, int k) const
 // (0: empty): a probe compares hashes and reads a name only when they match, one cache miss
 // per lookup instead of two.
 namespace {
-std::uint64_t name_hash(const std::string& name) { return std::hash<std::string_view>{}(name); }
+std::uint64_t name_hash(std::string_view name) { return std::hash<std::string_view>{}(name); }
 
 // n of a name "<prefix><n>" (and the prefix's length), or -1 for a name kept in the hash table.
-int name_number(const std::string& name, std::size_t& prefix) {
-  std::size_t start = name.size();
-  while (start > 0 && name[start - 1] >= '0' && name[start - 1] <= '9') --start;
-  const std::size_t digits = name.size() - start;
-  if (digits == 0 || digits > 8 || (digits > 1 && name[start] == '0')) return -1;
-  int n = 0;
-  for (std::size_t i = start; i < name.size(); ++i) n = 10 * n + (name[i] - '0');
-  prefix = start;
-  return n;
-}
+int name_number(std::string_view name, std::size_t& prefix) { return detail::NameStore::number_of(name, prefix); }
 }  // namespace
 
 int ModelBuilder::find_name(const std::string& name) const {
@@ -198,11 +188,10 @@ int ModelBuilder::find_name(const std::string& name) const {
   }
 }
 
-void ModelBuilder::insert_name(int coordinate) {
-  const std::string& name = draft_.names_[static_cast<std::size_t>(coordinate)];
+void ModelBuilder::insert_name(int coordinate, const std::string& name) {
   std::size_t prefix = 0;
   if (const int n = name_number(name, prefix); n >= 0) {
-    const auto added = numbered_of_.try_emplace(name.substr(0, prefix), static_cast<int>(numbered_.size()));
+    const auto added = numbered_of_.try_emplace(std::string(name.substr(0, prefix)), static_cast<int>(numbered_.size()));
     if (added.second) numbered_.emplace_back();
     auto& pages = numbered_[static_cast<std::size_t>(added.first->second)].pages;
     const std::size_t page = static_cast<std::size_t>(n / kNamePage);
@@ -330,12 +319,13 @@ int ModelBuilder::add_rigid_body(const RigidBody& rb) {
   block.topLeftCorner<3, 3>() = inertia;
   for (int i = 0; i < d; ++i) block(3 + i, 3 + i) = rb.mass;
   Model& m = draft_;
-  if (m.velocity_names_.empty()) m.velocity_names_ = m.names_;  // the bodies before: the same names
+  if (m.velocity_names_.empty())  // the bodies before: the same names
+    for (std::size_t i = 0; i < m.names_.size(); ++i) m.velocity_names_.emplace_back(m.names_[i]);
   const int q_first = static_cast<int>(m.names_.size()), v_first = m.mass_.size();
   m.bodies_.push_back({v_first, 3 + d, q_first, 4 + d, BodyKind::Rigid, d});
-  m.names_.insert(m.names_.end(), qnames.begin(), qnames.end());
+  m.names_.push_body(qnames.data(), static_cast<int>(qnames.size()));
   m.velocity_names_.insert(m.velocity_names_.end(), vnames.begin(), vnames.end());
-  for (int i = 0; i < 4 + d; ++i) insert_name(q_first + i);
+  for (int i = 0; i < 4 + d; ++i) insert_name(q_first + i, qnames[static_cast<std::size_t>(i)]);
   m.mass_.add_block(block);
   m.num_configuration_ += 4 + d;
   RigidBlock r;
@@ -357,7 +347,6 @@ void ModelBuilder::reserve(int bodies, int coordinates, int rows, int values) {
   if (bodies < 0 || coordinates < 0 || rows < 0 || values < 0) fail("reserve: negative size");
   using sparse::reserve_buffer;
   reserve_buffer(draft_.bodies_, static_cast<std::size_t>(bodies));
-  reserve_buffer(draft_.names_, static_cast<std::size_t>(coordinates));
   draft_.mass_.reserve(coordinates);
   reserve_buffer(row_ptr_, static_cast<std::size_t>(rows) + 1);
   reserve_buffer(row_cols_, static_cast<std::size_t>(values));
@@ -869,7 +858,6 @@ Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elem
     fail("a configuration-dependent metric (configuration_metric) and 3-D rigid bodies cannot be combined: the "
          "implicit general form integrates planar coordinates only");
   const int n = model.mass_.size();  // columns are velocity entries
-  const auto& names = model.velocity_names();
   const int rows = static_cast<int>(model.pattern_.row_ptr.size()) - 1;
   if (!model.row_labels_.empty()) model.row_labels_.resize(static_cast<std::size_t>(rows));
   model.inverse_mass_ = model.mass_.inverse();
@@ -903,7 +891,9 @@ Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elem
       const auto at = std::adjacent_find(sorted.begin(), sorted.end());
       if (at != sorted.end()) twice = *at;
     }
-    if (twice >= 0) fail(row() + ": column " + std::to_string(twice) + " (" + names[twice] + ") appears twice");
+    if (twice >= 0)
+      fail(row() + ": column " + std::to_string(twice) + " (" + std::string(model.velocity_name(twice)) +
+           ") appears twice");
   }
   check_structural_rank(model, ptr, cols);  // before anything the size of C is built
   build_elements(model, std::move(elements));
@@ -916,6 +906,7 @@ Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elem
   if (model.holonomic_rows_.empty() && model.gap_)
     fail("a gap function was given but no holonomic rows (add them with add_holonomic_row)");
   model.new_gram();
+  model.new_name_list();
   return model;
 }
 

@@ -94,7 +94,7 @@ HeldCaches Workspace::make_held() const {
   if (partitions_)
     h.partitions_ = std::make_unique<detail::ChainPartitions>(
         model_->num_bodies(), partitions_->parts, static_cast<int>(model_->element_set()->thrusts.size()),
-        static_cast<sparse::BandedLdlt*>(h.factor_.get()));
+        static_cast<sparse::BandedLdlt*>(h.factor_.get()), partitions_->tail_x);
   for (auto [mine, theirs] : {std::pair{&mu_q_, &h.mu_q_}, std::pair{&mu_values, &h.mu_values_},
                               std::pair{&chain_sincos, &h.chain_sincos_}, std::pair{&chain_sincos_prev, &h.chain_sincos_prev_}})
     sparse::zero_buffer(*theirs, mine->size());
@@ -255,7 +255,7 @@ Status Workspace::report_non_finite_one_forms() {
         return fail(Status::NonFiniteOneForms,
                     "one-form row %d%s, column %d (%s) has value %g: check the model's one-form "
                     "values at this q, or reduce the step size if the state blew up",
-                    r, row_note(r), pattern.col_idx[k], model_->velocity_names()[pattern.col_idx[k]].c_str(),
+                    r, row_note(r), pattern.col_idx[k], model_->velocity_name(pattern.col_idx[k]).c_str(),
                     mu_values[k]);
   return fail(Status::NonFiniteOneForms, "%s%s: the state or the one-forms are not finite: reduce the step size",
               factor_->message(), row_note(factor_->failed_row()));

@@ -22,7 +22,6 @@ namespace {
 // A configuration (n_q entries, `configuration`) or a velocity (n_v): its size and finiteness.
 void check_vector(const char* what, ConstVecRef v, const Model& model, bool configuration) {
   const int n = configuration ? model.num_configuration() : model.num_velocities();
-  const auto& names = configuration ? model.coordinate_names() : model.velocity_names();
   if (v.size() != n) {
     std::ostringstream os;
     os << "start: expected " << n << " entries in " << what << " (one per "
@@ -33,7 +32,8 @@ void check_vector(const char* what, ConstVecRef v, const Model& model, bool conf
   for (int i = 0; i < n; ++i)
     if (!std::isfinite(v[i])) {
       std::ostringstream os;
-      os << "start: " << what << "[" << i << "] (" << names[i] << ") is " << v[i];
+      os << "start: " << what << "[" << i << "] (" << (configuration ? model.coordinate_name(i) : model.velocity_name(i))
+         << ") is " << v[i];
       throw std::invalid_argument(os.str());
     }
 }
@@ -44,11 +44,11 @@ void normalise_quaternions(const char* what, VecRef q, const Model& model) {
   for (const RigidBlock& r : model.rigid_bodies()) {
     const double norm = q.segment<4>(r.q).norm();
     if (!(std::abs(norm - 1.0) <= 1e-6)) {
-      const auto& names = model.coordinate_names();
+      auto name = [&](int k) { return model.coordinate_name(r.q + k); };
       std::ostringstream os;
       os.precision(17);
-      os << "start: " << what << ": the quaternion of rigid body " << r.body << " (" << names[r.q] << ", "
-         << names[r.q + 1] << ", " << names[r.q + 2] << ", " << names[r.q + 3] << ") has norm " << norm
+      os << "start: " << what << ": the quaternion of rigid body " << r.body << " (" << name(0) << ", " << name(1)
+         << ", " << name(2) << ", " << name(3) << ") has norm " << norm
          << "; give a unit quaternion (w, x, y, z), for example axis_angle_quaternion(axis, angle)";
       throw std::invalid_argument(os.str());
     }
@@ -106,7 +106,7 @@ Vector& sized_buffer(Vector& buffer, Vector& local, Eigen::Index size) {
 void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVecRef q0) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const int n = model.num_velocities();
-  const auto& names = model.velocity_names();
+  auto names = [&model](int i) { return std::string(model.velocity_name(i)); };  // for messages
   auto complain = [](const std::string& what) { throw std::invalid_argument("start: " + what); };
   Vector local, local2;
   const bool element_rows = model.has_elements() && !model.element_set()->rows.empty();
@@ -125,7 +125,7 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
       for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
         if (std::isnan(mu[k]))
           complain("one_form_values left value " + std::to_string(k) + " (" + model.describe_row(r) + ", column " +
-                   names[pattern.col_idx[k]] + ") unset or NaN at q0: it must fill all " +
+                   names(pattern.col_idx[k]) + ") unset or NaN at q0: it must fill all " +
                    std::to_string(pattern.nnz()) + " values, row by row in the order of each row's columns");
     if (model.has_analytic_bias()) {
       Vector& bias = sized_buffer(ws.scratch_m, local, model.num_one_forms());
@@ -146,7 +146,7 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
     map.generator(q0, xi);
     for (int i = 0; i < n; ++i)
       if (std::isnan(xi[i]))
-        complain("symmetry '" + map.name + "': its generator left entry " + std::to_string(i) + " (" + names[i] +
+        complain("symmetry '" + map.name + "': its generator left entry " + std::to_string(i) + " (" + names(i) +
                  ") unset or NaN at q0");
     const double j_xi = map.map(q0, xi), xi_xi = xi.squaredNorm();
     if (!(std::abs(j_xi - xi_xi) <= 1e-12 * xi_xi + 1e-300)) {
@@ -193,7 +193,7 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
       if (std::isnan(f[i]))
         complain(std::string(model.has_external_force() ? "the external force or the potential gradient"
                                                         : "the potential gradient") +
-                 " left entry " + std::to_string(i) + " (" + names[i] + ") unset or NaN at q0");
+                 " left entry " + std::to_string(i) + " (" + names(i) + ") unset or NaN at q0");
   }
 }
 

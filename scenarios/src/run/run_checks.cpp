@@ -186,7 +186,7 @@ Status PrecisionWatch::check(ConstVecRef q, ConstVecRef v, double h, long step, 
   const double u = ulp(q[worst_q]);
   std::ostringstream os;
   os.precision(3);
-  const std::string& name = model_.coordinate_names()[static_cast<std::size_t>(worst_q)];
+  const std::string name(model_.coordinate_name(worst_q));
   os << "coordinate " << name << " = " << q[worst_q] << " at step " << step << ": its ulp is " << u
      << " and a step moves it by h |v| = " << displacement;
   // Lost: q + d rounds back to q when d is at most half an ulp.

@@ -51,7 +51,8 @@ class Runner {
   virtual long legendre_iterations() const { return -1; }
   // The velocity the diagnostics are of (reflection: M^-1 p~; DLA: M^-1 p_{k-1/2}; the
   // reference methods: v; the implicit form: M(q)^-1 P* p+), n_v entries. Valid after
-  // diagnostics(); the run's work and precision checks use it.
+  // diagnostics(), until the runner's next call (it may be the workspace's scratch); the run's
+  // work and precision checks use it.
   virtual ConstVecRef velocity() = 0;
   // relative_residual (run_checks.hpp) of velocity() at q: |mu_i v| / (|mu_i|_1 |v|_inf) at
   // its largest; 0 without one-forms, NaN if mu(q) is not finite. After diagnostics().

@@ -24,7 +24,8 @@ constexpr double kPlainWeight = 1.5;
 
 }  // namespace
 
-ChainPartitions::ChainPartitions(int bodies, int count, int thrusts, sparse::BandedLdlt* band) : parts(count) {
+ChainPartitions::ChainPartitions(int bodies, int count, int thrusts, sparse::BandedLdlt* band, double* shared_tail_x)
+    : parts(count) {
   // Plain partitions (the first; the last, from the tail) take kPlainWeight times a bordered
   // one's bodies.
   std::vector<double> weight(parts, 1.0);
@@ -51,7 +52,8 @@ ChainPartitions::ChainPartitions(int bodies, int count, int thrusts, sparse::Ban
                         band->size() + band->spare_rows() >= 3 * bodies && 3 * tail_first <= band->size();
     tail = inside ? std::make_unique<sparse::BandedLdlt>(3 * n, kChainBandwidth, band->row(3 * tail_first))
                   : std::make_unique<sparse::BandedLdlt>(3 * n, kChainBandwidth);
-    tail_x.assign(3 * static_cast<std::size_t>(n), 0.0);
+    if (!shared_tail_x) tail_storage.assign(3 * static_cast<std::size_t>(n), 0.0);
+    tail_x = shared_tail_x ? shared_tail_x : tail_storage.data();
   }
   part.assign(parts, Part{});
   thrust_values.assign(2 * static_cast<std::size_t>(thrusts), 0.0);

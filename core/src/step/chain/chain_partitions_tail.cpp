@@ -59,7 +59,7 @@ void renumber(sparse::PivotLog& log, int n_bodies) {
 
 void forward_tail(ChainPartitions& cp, int n_bodies, double* x) {
   const int n = n_bodies - cp.tail_first;
-  double* xr = cp.tail_x.data();
+  double* xr = cp.tail_x;
   gather(cp, n_bodies, x, xr, false);
   const PartRows rows(*cp.tail, n_bodies, n);
   double right[2] = {0.0, 0.0};
@@ -71,7 +71,7 @@ void forward_tail(ChainPartitions& cp, int n_bodies, double* x) {
 
 void backward_tail(ChainPartitions& cp, int n_bodies, double* x) {
   const int n = n_bodies - cp.tail_first;
-  double* xr = cp.tail_x.data();
+  double* xr = cp.tail_x;
   gather(cp, n_bodies, x, xr, true);
   auto no_border = [](double*, int) {};
   for (int k = n - 1; k >= 0; --k) back_substitute_body(*cp.tail, k, n_bodies, k == n - 1, xr, no_border);
@@ -80,7 +80,7 @@ void backward_tail(ChainPartitions& cp, int n_bodies, double* x) {
 
 double tail_mode(const ChainPartitions& cp, int n_bodies) {
   const int own = 3 * (n_bodies - cp.tail_first) - 2;
-  const double* xr = cp.tail_x.data();
+  const double* xr = cp.tail_x;
   double mode = 0.0;
   for (int r = 0; r < own; ++r) mode += xr[r] * xr[r] * cp.tail->row(r)[KD];
   return mode;
@@ -104,7 +104,7 @@ bool tail_sweep_forward(const Model& model, Workspace& ws, const State& st, doub
   Forward fw(model, ws, st, h, t_next, kicked);
   fw.restrict_to(b0, n_bodies);
   fw.thrust_values = cp.thrust_values.data();
-  double *qn = fw.qn, *sc = fw.sc, *y = cp.tail_x.data();
+  double *qn = fw.qn, *sc = fw.sc, *y = cp.tail_x;
   const double rhs_scale = -2.0 / h;
   double vhat[2][3] = {};
   double gap = 0.0, right[2] = {0.0, 0.0}, work[KD];
@@ -187,7 +187,7 @@ void tail_sweep_backward(const Model& model, Workspace& ws, double h) {
   const double half = 0.5 * h;
   const double* sc = ws.chain_sincos.data();
   const double* forces = model.has_applied_force() ? ws.applied.data() : nullptr;
-  double *pn = ws.p_next.data(), *fn = ws.force_next.data(), *lam = ws.lambda.data(), *x = cp.tail_x.data();
+  double *pn = ws.p_next.data(), *fn = ws.force_next.data(), *lam = ws.lambda.data(), *x = cp.tail_x;
   x[3 * n - 2] = -lam[3 * b0 - 2];  // the separator's multipliers, negated here
   x[3 * n - 1] = -lam[3 * b0 - 1];
   BlockSum kinetic;
@@ -222,7 +222,7 @@ void tail_gap_forward(const ChainBodies& body, ChainPartitions& cp, const double
                       const double* force, double h, double scale, double* ph, double* qn, double* sc, double& worst,
                       double& largest) {
   const int n_bodies = body.size(), n = n_bodies - cp.tail_first;
-  double* y = cp.tail_x.data();
+  double* y = cp.tail_x;
   const PartRows rows(*cp.tail, n_bodies, n);
   double right[2] = {0.0, 0.0};
   // Bodies are drifted two ahead of the gaps that read them: a gap read right after the
@@ -250,7 +250,7 @@ void tail_gap_forward(const ChainBodies& body, ChainPartitions& cp, const double
 
 void tail_forward_substitute(ChainPartitions& cp, int n_bodies) {
   const int n = n_bodies - cp.tail_first;
-  double* y = cp.tail_x.data();
+  double* y = cp.tail_x;
   const PartRows rows(*cp.tail, n_bodies, n);
   double right[2] = {0.0, 0.0};
   for (int k = 0; k < n; ++k) rows.forward<true>(k, y, nullptr, right);
@@ -264,7 +264,7 @@ void tail_forward_substitute(ChainPartitions& cp, int n_bodies) {
 void tail_correct_backward(const ChainBodies& body, ChainPartitions& cp, const double* so, double h, double scale,
                            double* ph, double* qn, double* sc, const double* x, double& worst) {
   const int n_bodies = body.size(), b0 = cp.tail_first, n = n_bodies - b0;
-  double* y = cp.tail_x.data();
+  double* y = cp.tail_x;
   y[3 * n - 2] = -x[3 * b0 - 2];  // the separator's multipliers, negated here
   y[3 * n - 1] = -x[3 * b0 - 1];
   auto finish = [&](int c) {

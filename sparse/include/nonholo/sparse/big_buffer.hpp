@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <type_traits>
 #include <vector>
 
 namespace nonholo::sparse {
@@ -19,6 +20,13 @@ inline constexpr std::size_t kHugePageBytes = std::size_t{2} << 20;
 /// fewer than kHugePageBytes). Advice only: a refusal changes nothing but the speed.
 void advise_huge_pages(void* data, std::size_t bytes);
 
+/// Sets [data, data + bytes) to zero bytes. On Linux the whole pages inside a large buffer that
+/// are not resident (fresh memory) are handed to the kernel (madvise MADV_DONTNEED), which gives
+/// them zero-filled when they are first touched: the zeros cost no writes, and pages a run never
+/// touches (a workspace's vectors that only some paths use) hold no memory. Resident pages, and
+/// everything elsewhere or if the kernel refuses, are written with memset.
+void zero_bytes(void* data, std::size_t bytes);
+
 /// v holds n zeros; a new allocation is advised (advise_huge_pages) before it is first written.
 template <class Derived>
 void zero_buffer(Eigen::PlainObjectBase<Derived>& v, Eigen::Index n) {
@@ -26,7 +34,8 @@ void zero_buffer(Eigen::PlainObjectBase<Derived>& v, Eigen::Index n) {
     v.resize(n);
     advise_huge_pages(v.data(), static_cast<std::size_t>(n) * sizeof(typename Derived::Scalar));
   }
-  v.setZero();
+  static_assert(std::is_trivially_copyable_v<typename Derived::Scalar>, "zero bytes must be a zero value");
+  zero_bytes(v.data(), static_cast<std::size_t>(n) * sizeof(typename Derived::Scalar));
 }
 
 /// The same for a std::vector: n copies of value.
