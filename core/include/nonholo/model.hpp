@@ -48,9 +48,9 @@ class NameStore {
   static int number_of(std::string_view name, std::size_t& prefix);
 
  private:
-  // Names [first, first + count) are either literal names (k == 0: literals_ from `literal`) or
-  // a run of bodies of k names each, name j of body b being prefix j (literals_ from `literal`)
-  // followed by the decimal number + b.
+  // Names [first, first + count) are either literal names (k == 0: the literals from index
+  // `literal` on) or a run of bodies of k names each, name j of body b being literal
+  // `literal` + j (its prefix) followed by the decimal number + b.
   struct Segment {
     std::size_t first = 0, count = 0;
     std::uint32_t literal = 0, k = 0;
