@@ -115,6 +115,51 @@ TEST(Accuracy, OnTheRunsWorkspaceTheWatchEstimatesAsOnItsOwn) {
   }
 }
 
+// What the run's workspace and state hold when the shadow has stepped: on the common chain the
+// shadow writes the run's own mu buffer (it has none), and a plain shadow step borrows the run's
+// lambda and force buffers. The run's mu, when it held it (asked for before the sample, as a
+// run's residual output does), is made again bit for bit; lambda and force come back in the same
+// buffers with the same bits.
+TEST(Accuracy, TheShadowLeavesTheRunsOneFormsAndBuffersAsTheyWere) {
+  for (HitchMode hitch : {HitchMode::Holonomic, HitchMode::OneForm})
+    for (int threads : {1, 2}) {
+      const auto setup = testing::scene("sleigh_chain", {"bodies=12"});
+      RattleOptions o;
+      o.h = 0.01;
+      o.hitch = hitch;
+      o.restart.mode = RestartMode::Periodic;  // every step, the shadow's too: it writes mu(q_{k+2})
+      o.restart.every = 1;
+      WorkspaceOptions wo;
+      wo.threads = threads;
+      Workspace ws(setup.model, wo);
+      State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
+      AccuracyWatch w(ws, o, 8);
+      long checked = 0;
+      for (int k = 0; k < 300; ++k) {
+        const bool ask = k % 3 != 1;  // the run's mu valid at most samples, not at all
+        if (ask) ASSERT_EQ(ws.evaluate_one_forms(s.q), Status::Ok);
+        const Vector mu = ws.mu_values, lambda = s.lambda, force = s.force;
+        const double *lambda_at = s.lambda.data(), *force_at = s.force.data();
+        const long samples = w.estimate().samples() + w.estimate().failed_samples();
+        const bool sampling = w.estimate().due();
+        w.before_step(s);
+        if (sampling) {
+          EXPECT_TRUE(s.lambda.data() == lambda_at && s.force.data() == force_at) << k;
+          EXPECT_TRUE(s.lambda == lambda && s.force == force) << k;
+          if (ask) {
+            EXPECT_EQ(std::memcmp(mu.data(), ws.mu_values.data(), sizeof(double) * mu.size()), 0) << k;
+            ++checked;
+          }
+        }
+        ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok) << ws.message();
+        w.after_step(s);
+        EXPECT_GE(w.estimate().samples() + w.estimate().failed_samples(), samples);
+      }
+      EXPECT_GE(checked, 10) << threads << " threads";
+      EXPECT_GT(w.estimate().samples(), 20);
+    }
+}
+
 TEST(Accuracy, TheWatchLeavesTheRunBitForBit) {
   for (int order : {2, 4}) {
     const auto setup = testing::scene("sleigh_chain", {"bodies=5"});

@@ -116,6 +116,11 @@ TEST(Checkpoint, AResumedRunIsTheUninterruptedOneBitForBit) {
       {"sleigh order 2", {"sleigh", "--t-end", "5"}, "csv", 170},
       {"sleigh order 8", {"sleigh", "--order", "8", "--dt", "0.1", "--t-end", "5"}, "csv", 17},
       {"chain holonomic order 2", {"sleigh_chain", "--set", "bodies=50", "--t-end", "3"}, "csv", 101},
+      // Stopped while the accuracy check's sample is under way (its shadow saved; samples start
+      // every 2 steps at first), and right after one ended.
+      {"chain holonomic, a sample under way", {"sleigh_chain", "--set", "bodies=50", "--t-end", "3"}, "csv", 4},
+      {"chain holonomic, a sample ended", {"sleigh_chain", "--set", "bodies=50", "--t-end", "3"}, "csv", 5},
+      {"chain one-form on 2 threads, a sample under way", {"sleigh_chain", "--set", "bodies=50", "--hitch", "oneform", "--threads", "2", "--t-end", "3"}, "csv", 4},
       {"chain holonomic order 4", {"sleigh_chain", "--set", "bodies=20", "--order", "4", "--dt", "0.05", "--t-end", "3"}, "csv", 21},
       {"chain holonomic order 6", {"sleigh_chain", "--set", "bodies=20", "--order", "6", "--dt", "0.05", "--t-end", "3"}, "csv", 21},
       {"chain one-form order 8", {"sleigh_chain", "--set", "bodies=20", "--hitch", "oneform", "--order", "8", "--dt", "0.1", "--t-end", "3"}, "csv", 11},

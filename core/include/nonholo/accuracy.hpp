@@ -155,7 +155,8 @@ class DoublingEstimate {
 /// one step of H). The shadow steps on the run's workspace: its scratch is shared (a shadow step
 /// never overlaps a run step), and what a step leaves for the next one is swapped for the
 /// shadow's own (HeldCaches) around each shadow step, so the run's workspace is left holding what
-/// it held. Besides that set, the watch keeps the shadow's state and the extent's range of q.
+/// it held. Besides that set, the watch keeps the shadow's state (q and p; lambda and force too for
+/// composed steps) and the extent's range of q.
 /// Both are made at the first sample (the only allocations), or by prepare(). The shadow never
 /// changes the run's state or what its workspace holds for the next step.
 class AccuracyWatch {
@@ -172,8 +173,10 @@ class AccuracyWatch {
 
   /// Call before each step of the run, with the state it starts from, and after it with the new
   /// state. Never throws; a shadow step that fails is counted (failed_samples(), first_failure()).
+  /// before_step lends the state's lambda and force buffers to a plain shadow step (order 2)
+  /// and has them back, unchanged, before it returns.
   ///@{
-  void before_step(const State& s) {
+  void before_step(State& s) {
     if (estimate_.due()) start_shadow(s);
   }
   void after_step(const State& s) {
@@ -206,7 +209,8 @@ class AccuracyWatch {
 
  private:
   void make_shadow();
-  void start_shadow(const State& s);
+  bool lends() const;
+  void start_shadow(State& s);
   void finish_shadow(const State& s);
   const Model& model_;
   std::unique_ptr<Workspace> own_;  // the shadow's own workspace, if it has one

@@ -33,6 +33,8 @@ class OutArchive {
     (*this)(static_cast<long>(x));
   }
   ///@}
+  /// A vector of n zeros, as operator()(ConstVecRef) writes one.
+  void zeros(Eigen::Index n);
   /// A label, read back and compared: a reader out of step fails at the first label it meets.
   void tag(const char* label) { (*this)(std::string(label)); }
 
@@ -90,5 +92,8 @@ class InArchive {
 void save(OutArchive& a, const State& s);
 void load(InArchive& a, State& s);
 ///@}
+/// save() for a state whose lambda and force are lent out (empty; AccuracyWatch's shadow): the
+/// bytes of the same state with m and n zeros there, which load() reads into vectors of those sizes.
+void save_lent(OutArchive& a, const State& s, Eigen::Index m, Eigen::Index n);
 
 }  // namespace nonholo

@@ -219,6 +219,7 @@ class alignas(128) Workspace {
   void one_forms_factorized_at_key(bool mu_written, bool parted = false) {
     key_valid_ = factor_valid_ = sincos_valid_ = true;
     mu_valid_ = mu_written;
+    mu_from_sincos_ = false;
     parted_ = parted;
     ++factorizations;
   }
@@ -249,10 +250,16 @@ class alignas(128) Workspace {
   /// and out after them, every other buffer shared. make_held() sizes a set like this
   /// workspace's, holding nothing yet (it shares the workspace's scratch, a split chain's tail
   /// vector included: it must not outlive the workspace); swap_held() exchanges it with the
-  /// workspace's own, in constant time (pointers and flags).
+  /// workspace's own (pointers and flags), in for the visitor's steps, then out.
+  /// On the common chain of knife edges and hitches (whose sweeps do not write mu) the set has no
+  /// mu of its own (88 MB for a million bodies): the visitor writes the workspace's, and its
+  /// values do not survive its visit; the owner's, if it held them, are made again on the way out
+  /// from the sin/cos they were made from, bit for bit (one pass over mu). Where they were made otherwise (a resumed
+  /// run's, read from its checkpoint), swapping in first gives the set a mu of its own, once
+  /// (std::bad_alloc if that fails; nothing is swapped then).
   ///@{
   HeldCaches make_held() const;
-  void swap_held(HeldCaches& other) noexcept;
+  void swap_held(HeldCaches& other);
   ///@}
   /// Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
   bool sincos_hold(ConstVecRef q) const;
@@ -273,6 +280,7 @@ class alignas(128) Workspace {
   bool mu_valid_ = false;     // mu_values holds mu(mu_q_)
   bool factor_valid_ = false;  // the factorisation holds C(mu(mu_q_))
   bool sincos_valid_ = false;  // chain_sincos holds sin/cos of mu_q_ (fused workspaces only)
+  bool mu_from_sincos_ = false;  // mu_values were made from chain_sincos (so can be made again)
   bool parted_ = false;        // the factorisation is partitions_' (a partitioned step's)
   std::unique_ptr<detail::ChainPartitions> partitions_;
   int team_ = 1;               // set_team's
@@ -311,8 +319,12 @@ class HeldCaches {
   friend class Workspace;
   std::unique_ptr<sparse::Factorization> factor_;
   std::unique_ptr<detail::ChainPartitions> partitions_;
-  Vector mu_q_, mu_values_, chain_sincos_, chain_sincos_prev_;
+  // chain_sincos_prev is scratch within a holonomic step: the workspace's serves both sets.
+  Vector mu_q_, mu_values_, chain_sincos_;
   bool key_valid_ = false, mu_valid_ = false, factor_valid_ = false, sincos_valid_ = false, parted_ = false;
+  bool mu_from_sincos_ = false;
+  bool shares_mu_ = false;  // no mu_values_: the visitor writes the workspace's (see Workspace::swap_held)
+  bool visiting_ = false;   // swapped in now
   Workspace::StepDiagnostics step_diagnostics_;
   long factorizations_ = 0;
   int legendre_iterations_ = 0;

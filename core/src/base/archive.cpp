@@ -17,6 +17,11 @@ void OutArchive::operator()(ConstVecRef v) {
   raw(v.data(), sizeof(double) * static_cast<std::size_t>(v.size()));
 }
 
+void OutArchive::zeros(Eigen::Index n) {
+  (*this)(static_cast<long>(n));
+  bytes_.append(sizeof(double) * static_cast<std::size_t>(n), '\0');  // +0.0 is all zero bits
+}
+
 void OutArchive::operator()(const std::vector<double>& v) {
   (*this)(Eigen::Map<const Vector>(v.data(), static_cast<Eigen::Index>(v.size())));
 }
@@ -86,12 +91,14 @@ void InArchive::tag(const char* label) {
 }
 
 namespace {
-// Every field of a State, in one order for both directions (S: State or const State).
-template <class Archive, class S>
-void state_fields(Archive& a, S& s) {
+// Every field of a State, in one order for both directions (S: State or const State);
+// `multipliers` reads or writes lambda and force.
+template <class Archive, class S, class Multipliers>
+void state_fields(Archive& a, S& s, Multipliers multipliers) {
   a.tag("state");
   a(s.t), a(s.grid.t0), a(s.grid.h), a(s.grid.k);
-  a(s.q), a(s.p), a(s.lambda), a(s.force);
+  a(s.q), a(s.p);
+  multipliers();
   a(s.steps), a(s.restarts);
   a(s.watch.next_step), a(s.watch.last_step), a(s.watch.last_amplitude), a(s.watch.floor);
   a(s.target_energy);
@@ -100,7 +107,14 @@ void state_fields(Archive& a, S& s) {
 static_assert(sizeof(void*) != 8 || sizeof(State) == 152, "State changed: add the new field to state_fields()");
 }  // namespace
 
-void save(OutArchive& a, const State& s) { state_fields(a, s); }
-void load(InArchive& a, State& s) { state_fields(a, s); }
+void save(OutArchive& a, const State& s) {
+  state_fields(a, s, [&] { a(s.lambda), a(s.force); });
+}
+void load(InArchive& a, State& s) {
+  state_fields(a, s, [&] { a(s.lambda), a(s.force); });
+}
+void save_lent(OutArchive& a, const State& s, Eigen::Index m, Eigen::Index n) {
+  state_fields(a, s, [&] { a.zeros(m), a.zeros(n); });
+}
 
 }  // namespace nonholo

@@ -95,24 +95,35 @@ HeldCaches Workspace::make_held() const {
     h.partitions_ = std::make_unique<detail::ChainPartitions>(
         model_->num_bodies(), partitions_->parts, static_cast<int>(model_->element_set()->thrusts.size()),
         static_cast<sparse::BandedLdlt*>(h.factor_.get()), partitions_->tail_x);
-  for (auto [mine, theirs] : {std::pair{&mu_q_, &h.mu_q_}, std::pair{&mu_values, &h.mu_values_},
-                              std::pair{&chain_sincos, &h.chain_sincos_}, std::pair{&chain_sincos_prev, &h.chain_sincos_prev_}})
-    sparse::zero_buffer(*theirs, mine->size());
+  // The common chain's sweeps leave mu unwritten (chain_sweep.cpp): its values, when asked for,
+  // are made from the sin/cos the set keeps, so one buffer serves both sets (swap_held).
+  h.shares_mu_ = fused() && model_->element_set()->hitched_chain;
+  sparse::zero_buffer(h.mu_q_, mu_q_.size());
+  sparse::zero_buffer(h.chain_sincos_, chain_sincos.size());
+  if (!h.shares_mu_) sparse::zero_buffer(h.mu_values_, mu_values.size());
   return h;
 }
 
-void Workspace::swap_held(HeldCaches& h) noexcept {
+void Workspace::swap_held(HeldCaches& h) {
   using std::swap;
+  const bool in = !h.visiting_;
+  // Coming in to a workspace whose mu cannot be made again as it is (not from its sin/cos): the
+  // set's own buffer, once (before anything is swapped, so a failed allocation changes nothing).
+  if (in && h.shares_mu_ && key_valid_ && mu_valid_ && !(mu_from_sincos_ && sincos_valid_)) {
+    sparse::zero_buffer(h.mu_values_, mu_values.size());
+    h.shares_mu_ = false;
+  }
+  h.visiting_ = in;
   swap(factor_, h.factor_);
   banded_ = factor_ && factor_->backend() == sparse::Backend::Banded ? static_cast<sparse::BandedLdlt*>(factor_.get())
                                                                      : nullptr;
   swap(partitions_, h.partitions_);
   mu_q_.swap(h.mu_q_);
-  mu_values.swap(h.mu_values_);
+  if (!h.shares_mu_) mu_values.swap(h.mu_values_);
   chain_sincos.swap(h.chain_sincos_);
-  chain_sincos_prev.swap(h.chain_sincos_prev_);
   swap(key_valid_, h.key_valid_);
   swap(mu_valid_, h.mu_valid_);
+  swap(mu_from_sincos_, h.mu_from_sincos_);
   swap(factor_valid_, h.factor_valid_);
   swap(sincos_valid_, h.sincos_valid_);
   swap(parted_, h.parted_);
@@ -123,6 +134,10 @@ void Workspace::swap_held(HeldCaches& h) noexcept {
   swap(restarted, h.restarted_);
   swap(options_known_, h.options_known_);
   swap(options_, h.options_);
+  if (!in && h.shares_mu_) {  // the visitor's values are lost with its visit; the owner's made again
+    h.mu_valid_ = false;
+    if (key_valid_ && mu_valid_) detail::chain_one_forms_from_sincos(*model_, *this);
+  }
 }
 
 // One chain on several threads (chain_partitions.hpp): the common chain of knife edges and hitches.
@@ -172,6 +187,7 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
       else  // a holonomic correction since reused chain_sincos for q_{k+1}
         model_->one_form_values(q, mu_values);
       mu_valid_ = true;
+      mu_from_sincos_ = sincos_valid_;
     }
     return Status::Ok;
   }
@@ -195,7 +211,7 @@ Status Workspace::evaluate_one_forms(ConstVecRef q) {
   }
   mu_q_ = q;
   key_valid_ = mu_valid_ = true;
-  sincos_valid_ = fused();
+  sincos_valid_ = mu_from_sincos_ = fused();
   return Status::Ok;
 }
 
@@ -228,10 +244,12 @@ void Workspace::load_held(InArchive& a, double min_pivot_ratio) {
   key_valid_ = key;
   mu_valid_ = mu;
   sincos_valid_ = sincos;
+  mu_from_sincos_ = false;  // read back: not known to be made from the sin/cos
   if (factor && !numbers) {  // factorise again (the step's own code for these backends), uncounted
     if (key && !mu && sincos && fused()) {  // a partitioned step's: mu from its sin/cos
       detail::chain_one_forms_from_sincos(*model_, *this);
       mu = true;
+      mu_from_sincos_ = true;
     }
     const long counted = factorizations;
     const Status s = key && mu ? factorize(min_pivot_ratio) : Status::Ok;

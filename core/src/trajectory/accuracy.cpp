@@ -146,25 +146,55 @@ AccuracyWatch::AccuracyWatch(const Model& model, const WorkspaceOptions& workspa
 // when a checkpoint with a sample under way is loaded.
 void AccuracyWatch::make_shadow() {
   held_ = ws_.make_held();
-  held_made_ = true;
   sparse::zero_buffer(shadow_.q, model_.num_configuration());
   sparse::zero_buffer(shadow_.p, model_.num_velocities());
-  sparse::zero_buffer(shadow_.lambda, model_.num_one_forms());
-  sparse::zero_buffer(shadow_.force, model_.num_velocities());
+  if (!lends()) {  // else the run's, lent for the step (start_shadow)
+    sparse::zero_buffer(shadow_.lambda, model_.num_one_forms());
+    sparse::zero_buffer(shadow_.force, model_.num_velocities());
+  }
+  held_made_ = true;  // last: an allocation that failed leaves it to be tried again
 }
 
+// A plain step reads the state's lambda and force and only exchanges their buffers with the
+// workspace's when it commits (rattle.cpp); a composed one writes them between its substeps.
+bool AccuracyWatch::lends() const { return options_.order == 2 && options_.composition == Composition::Auto; }
+
 // The shadow's step of 2h from the run's state, with its own held caches swapped in and the
-// run's put back after (the message of a failed step read in between).
-void AccuracyWatch::start_shadow(const State& s) {
+// run's put back after (the message of a failed step read in between). For a plain step the
+// run's lambda~_k and force_k are lent, not copied (two state-sized vectors less), and given
+// back from wherever the step's commit left them.
+void AccuracyWatch::start_shadow(State& s) {
   estimate_.include(s.q);
-  if (!held_made_) make_shadow();
-  shadow_ = s;  // same sizes: a copy, no allocation
-  ws_.swap_held(held_);
+  const bool lend = lends();
+  Vector lambda, force;  // empty: no allocation
+  try {
+    if (!held_made_) make_shadow();
+    ws_.swap_held(held_);  // allocates only in a rare case (Workspace::swap_held)
+  } catch (const std::bad_alloc&) {
+    estimate_.failed(s.t, "out-of-memory", "no memory for the accuracy check's shadow step");
+    return;
+  }
+  if (lend) {  // the run's buffers out of s for the copy, into the shadow after it
+    lambda.swap(s.lambda);
+    force.swap(s.force);
+  }
+  shadow_ = s;  // same sizes (lambda and force empty when lent): a copy, no allocation
+  if (lend) {
+    shadow_.lambda.swap(lambda);
+    shadow_.force.swap(force);
+  }
+  const double *lent_lambda = shadow_.lambda.data(), *lent_force = shadow_.force.data();
   const Status status = step(model_, ws_, shadow_, options_);
   if (status == Status::Ok)
     estimate_.started();
   else
     estimate_.failed(s.t, to_string(status), ws_.message());
+  if (lend) {  // committed: the lent buffers are the workspace's now (unwritten), exchanged back
+    if (shadow_.lambda.data() != lent_lambda) shadow_.lambda.swap(ws_.lambda);
+    if (shadow_.force.data() != lent_force) shadow_.force.swap(ws_.force_next);
+    s.lambda.swap(shadow_.lambda);
+    s.force.swap(shadow_.force);
+  }
   ws_.swap_held(held_);
 }
 
@@ -197,17 +227,31 @@ void DoublingEstimate::load(InArchive& a) {
   last_q_ = nullptr;
 }
 
-// The shadow only while a sample is under way (a state's worth of bytes otherwise saved).
+// The shadow only while a sample is under way (a state's worth of bytes otherwise saved); its
+// lambda and force, when lent, as zeros (the bytes stay those of a whole state; the estimate
+// reads only q and p).
 void AccuracyWatch::save(OutArchive& a) const {
   estimate_.save(a);
-  if (estimate_.pending()) nonholo::save(a, shadow_);
+  if (!estimate_.pending()) return;
+  if (lends())
+    save_lent(a, shadow_, model_.num_one_forms(), model_.num_velocities());
+  else
+    nonholo::save(a, shadow_);
 }
 
 void AccuracyWatch::load(InArchive& a) {
   estimate_.load(a);
   if (!estimate_.pending()) return;
   if (!held_made_) make_shadow();
+  if (!lends()) {
+    nonholo::load(a, shadow_);
+    return;
+  }
+  shadow_.lambda.resize(model_.num_one_forms());  // read, then let go: the next sample borrows the run's
+  shadow_.force.resize(model_.num_velocities());
   nonholo::load(a, shadow_);
+  shadow_.lambda.resize(0);
+  shadow_.force.resize(0);
 }
 
 }  // namespace nonholo
