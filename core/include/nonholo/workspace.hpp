@@ -253,10 +253,10 @@ class alignas(128) Workspace {
   /// workspace's own (pointers and flags), in for the visitor's steps, then out.
   /// On the common chain of knife edges and hitches (whose sweeps do not write mu) the set has no
   /// mu of its own (88 MB for a million bodies): the visitor writes the workspace's, and its
-  /// values do not survive its visit; the owner's, if it held them, are made again on the way out
-  /// from the sin/cos they were made from, bit for bit (one pass over mu). Where they were made otherwise (a resumed
-  /// run's, read from its checkpoint), swapping in first gives the set a mu of its own, once
-  /// (std::bad_alloc if that fails; nothing is swapped then).
+  /// values do not survive its visit; the owner's, if it held them, are made again on the way
+  /// out from the sin/cos they were made from, bit for bit (one pass over mu). Where they were
+  /// made otherwise (a resumed run's, read from its checkpoint), swapping in first gives the set
+  /// a mu of its own, once (std::bad_alloc if that fails; nothing is swapped then).
   ///@{
   HeldCaches make_held() const;
   void swap_held(HeldCaches& other);
