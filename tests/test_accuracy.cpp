@@ -138,11 +138,10 @@ TEST(Accuracy, TheShadowLeavesTheRunsOneFormsAndBuffersAsTheyWere) {
       AccuracyWatch w(ws, o, 8);
       long checked = 0;
       for (int k = 0; k < 300; ++k) {
-        const bool ask = k % 3 != 1;  // the run's mu valid at most samples, not at all
+        const bool ask = k % 3 != 1;  // the run's mu valid before two samples in three
         if (ask) ASSERT_EQ(ws.evaluate_one_forms(s.q), Status::Ok);
         const Vector mu = ws.mu_values, lambda = s.lambda, force = s.force;
         const double *lambda_at = s.lambda.data(), *force_at = s.force.data();
-        const long samples = w.estimate().samples() + w.estimate().failed_samples();
         const bool sampling = w.estimate().due();
         w.before_step(s);
         if (sampling) {
@@ -155,10 +154,10 @@ TEST(Accuracy, TheShadowLeavesTheRunsOneFormsAndBuffersAsTheyWere) {
         }
         ASSERT_EQ(step(setup.model, ws, s, o), Status::Ok) << ws.message();
         w.after_step(s);
-        EXPECT_GE(w.estimate().samples() + w.estimate().failed_samples(), samples);
       }
       EXPECT_GE(checked, 10) << threads << " threads";
       EXPECT_GT(w.estimate().samples(), 20);
+      EXPECT_EQ(w.estimate().failed_samples(), 0) << w.estimate().first_failure();
     }
 }
 
