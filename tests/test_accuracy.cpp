@@ -139,11 +139,14 @@ TEST(Accuracy, TheShadowLeavesTheRunsOneFormsAndBuffersAsTheyWere) {
       long checked = 0;
       for (int k = 0; k < 300; ++k) {
         const bool ask = k % 3 != 1;  // the run's mu valid before two samples in three
-        if (ask) ASSERT_EQ(ws.evaluate_one_forms(s.q), Status::Ok);
+        if (ask) {
+          ASSERT_EQ(ws.evaluate_one_forms(s.q), Status::Ok);
+        }
         const Vector mu = ws.mu_values, lambda = s.lambda, force = s.force;
         const double *lambda_at = s.lambda.data(), *force_at = s.force.data();
-        const bool sampling = w.estimate().due();
+        const bool sampling = w.estimate().due(), holds = ws.chain_factor_holds(s.q);
         w.before_step(s);
+        EXPECT_EQ(ws.chain_factor_holds(s.q), holds) << k << ": the run's key written back";
         if (sampling) {
           EXPECT_TRUE(s.lambda.data() == lambda_at && s.force.data() == force_at) << k;
           EXPECT_TRUE(s.lambda == lambda && s.force == force) << k;
@@ -159,6 +162,47 @@ TEST(Accuracy, TheShadowLeavesTheRunsOneFormsAndBuffersAsTheyWere) {
       EXPECT_GT(w.estimate().samples(), 20);
       EXPECT_EQ(w.estimate().failed_samples(), 0) << w.estimate().first_failure();
     }
+}
+
+// The held set keeps no key of mu: each side's is written back from its own q. White-box, on a
+// model the general path steps (its mu is the set's own): a key still valid is seen as a cache
+// hit, which leaves a marked mu_values as it is; a key that was lost evaluates mu afresh.
+TEST(Accuracy, TheHeldSetsKeyIsWrittenBackFromEachSidesQ) {
+  const auto setup = testing::scene("snakeboard", {});
+  Workspace ws(setup.model);
+  const Vector qa = setup.q0, qv = setup.q0 + Vector::Constant(setup.q0.size(), 0.01);
+  const Vector qother = setup.q0 + Vector::Constant(setup.q0.size(), 0.02);
+  auto hit = [&ws](const Vector& q) {  // whether mu(q) is the one the key says is there
+    ws.mu_values[0] = 12345.0;
+    const bool ok = ws.evaluate_one_forms(q) == Status::Ok;
+    return ok && ws.mu_values[0] == 12345.0;
+  };
+  ASSERT_EQ(ws.evaluate_one_forms(qa), Status::Ok);
+  HeldCaches held = ws.make_held();
+  // The owner's key is its q: shared. The visitor evaluates at qv and leaves with qv as its q.
+  ws.swap_held(held, qa.data(), qv.data());
+  EXPECT_FALSE(hit(qa)) << "the visitor sees no key of the owner's";
+  ASSERT_EQ(ws.evaluate_one_forms(qv), Status::Ok);
+  ws.swap_held(held, qa.data(), qv.data());
+  EXPECT_TRUE(hit(qa)) << "the owner's key written back";
+  ws.swap_held(held, qa.data(), qv.data());
+  EXPECT_TRUE(hit(qv)) << "the visitor's key written back";
+  // The visitor leaves at another q than its key's (its q moves as it steps): its key is dropped.
+  ws.swap_held(held, qa.data(), qother.data());
+  ws.swap_held(held, qa.data(), qother.data());
+  EXPECT_FALSE(hit(qv)) << "a key that was not the visitor's q is not kept";
+  ws.swap_held(held, qa.data(), qv.data());
+  EXPECT_TRUE(hit(qa));
+  // The owner's key is not its q: the set gets a key of its own, and both keys stay as they were.
+  ASSERT_EQ(ws.evaluate_one_forms(qother), Status::Ok);
+  ws.swap_held(held, qa.data(), qv.data());
+  EXPECT_TRUE(hit(qv)) << "the visitor's key, now in a buffer of its own";
+  ws.swap_held(held, qa.data(), qv.data());
+  EXPECT_TRUE(hit(qother)) << "the owner's key, not its q, kept as it was";
+  ws.swap_held(held, qa.data(), qv.data());
+  EXPECT_TRUE(hit(qv));
+  ws.swap_held(held, qa.data(), qv.data());
+  EXPECT_TRUE(hit(qother));
 }
 
 // A run's mu not made from its sines and cosines (here: read back from a checkpoint, then

@@ -257,9 +257,16 @@ class alignas(128) Workspace {
   /// out from the sin/cos they were made from, bit for bit (one pass over mu). Where they were
   /// made otherwise (a resumed run's, read from its checkpoint), swapping in first gives the set
   /// a mu of its own, once (std::bad_alloc if that fails; nothing is swapped then).
+  /// The key of mu (the q it belongs to) is after a step the q the step arrived at: given the two
+  /// trajectories' q (`owner_q`, `visitor_q`: their states' q, nq entries each; the owner's does
+  /// not change during the visit, the visitor's is on its way in what it was on its way out), the
+  /// set keeps no key (24 MB for a million bodies): each side's is written back from its q when it
+  /// comes back, and a visitor's key that is not its q on the way out is dropped (its next step
+  /// evaluates mu afresh). Where the owner's key is not its q, or the q are not given, the set
+  /// gets a key of its own, once, as for mu.
   ///@{
   HeldCaches make_held() const;
-  void swap_held(HeldCaches& other);
+  void swap_held(HeldCaches& other, const double* owner_q = nullptr, const double* visitor_q = nullptr);
   ///@}
   /// Whether chain_sincos holds sin/cos of this q (the last fused step arrived there).
   bool sincos_hold(ConstVecRef q) const;
@@ -324,6 +331,7 @@ class HeldCaches {
   bool key_valid_ = false, mu_valid_ = false, factor_valid_ = false, sincos_valid_ = false, parted_ = false;
   bool mu_from_sincos_ = false;
   bool shares_mu_ = false;  // no mu_values_: the visitor writes the workspace's (see Workspace::swap_held)
+  bool shares_key_ = false;  // no mu_q_: each side's key written back from its q (Workspace::swap_held)
   bool visiting_ = false;   // swapped in now
   Workspace::StepDiagnostics step_diagnostics_;
   long factorizations_ = 0;

@@ -10,9 +10,9 @@ namespace nonholo::detail {
 void ElementSet::values(ConstVecRef q, VecRef mu) const {
   const double* x = q.data();
   double* out = mu.data();
-  for (std::size_t r = 0; r < rows.size(); ++r) {
-    double* v = out + value_offset[r];
-    const ElementRow& row = rows[r];
+  for (std::size_t r = 0, n = num_rows(); r < n; ++r) {
+    double* v = out + value_start(r);
+    const ElementRow row = this->row(r);
     if (row.rigid()) {
       rigid_row_values(*this, row, x, v);
       continue;
@@ -42,20 +42,20 @@ void ElementSet::values(ConstVecRef q, VecRef mu) const {
 }
 
 void ElementSet::bias(ConstVecRef q, ConstVecRef qdot, VecRef bias) const {
-  for (std::size_t r = 0; r < rows.size(); ++r) {
-    const ElementRow& row = rows[r];
+  for (std::size_t r = 0, n = num_rows(); r < n; ++r) {
+    const ElementRow row = this->row(r);
     if (row.rigid()) {
       bias[static_cast<Eigen::Index>(r)] = rigid_row_bias(*this, row, q.data(), qdot.data());
       continue;
     }
     if (row.kind == ElementRow::Knife) {
-      const int b = knife_edges[row.element].body, o = body_offset[b];
+      const int b = knife_edges[row.element].body, o = v_offset(b);
       const double th = q[q_offset(b) + 2], w = qdot[o + 2];
       bias[static_cast<Eigen::Index>(r)] = w * (std::cos(th) * qdot[o] + std::sin(th) * qdot[o + 1]);
       continue;
     }
     const Hitch& h = hitches[row.element];
-    const int orr = body_offset[h.rear], of = body_offset[h.front];
+    const int orr = v_offset(h.rear), of = v_offset(h.front);
     const int qr = q_offset(h.rear) + 2, qf = q_offset(h.front) + 2;
     const double wr = qdot[orr + 2], wf = qdot[of + 2];
     const bool x = row.kind == ElementRow::HitchX;
@@ -67,7 +67,8 @@ void ElementSet::bias(ConstVecRef q, ConstVecRef qdot, VecRef bias) const {
 
 void ElementSet::gap(ConstVecRef q, VecRef g) const {
   Eigen::Index j = 0;
-  for (const ElementRow& row : rows) {
+  for (std::size_t r = 0, n = num_rows(); r < n; ++r) {
+    const ElementRow row = this->row(r);
     if (!row.holonomic()) continue;
     if (row.rigid()) {
       g[j++] = rigid_row_gap(*this, row, q.data());
@@ -94,7 +95,7 @@ double ElementSet::potential(ConstVecRef q) const {
 void ElementSet::gradient(ConstVecRef q, VecRef grad) const {
   grad.setZero();
   for (const TorsionalSpring& s : springs) {
-    const int a = body_offset[s.first] + 2, b = body_offset[s.second] + 2;
+    const int a = v_offset(s.first) + 2, b = v_offset(s.second) + 2;
     const double t = s.k * (q[q_offset(s.first) + 2] - q[q_offset(s.second) + 2] - s.rest);
     grad[a] += t;
     grad[b] -= t;
@@ -104,7 +105,7 @@ void ElementSet::gradient(ConstVecRef q, VecRef grad) const {
 void ElementSet::force(double t, ConstVecRef q, VecRef out) const {
   out.setZero();
   for (const Thrust& th : thrusts) {
-    const int o = body_offset[th.body], oq = q_offset(th.body);
+    const int o = v_offset(th.body), oq = q_offset(th.body);
     if (th.force) {
       const double f = th.force(t);
       out[o] += f * std::cos(q[oq + 2]);

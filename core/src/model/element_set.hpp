@@ -67,13 +67,38 @@ struct ElementSet {
   std::vector<BodyForce> body_forces;
   bool has_gravity = false;
   double gravity = 0.0;  // g of ModelBuilder::add_gravity
+  // Where each row comes from and its first value (the pattern's row_ptr). Both are dropped at
+  // build() when the chain layout implies them (rows_implied, below: 36 MB for a million-body
+  // chain); read them through num_rows(), row() and value_start().
   std::vector<ElementRow> rows;
-  std::vector<int> value_offset;  // first value of each row (the pattern's row_ptr)
-  std::vector<int> body_offset;   // first velocity entry of each body
-  // First configuration entry of each body; empty when every body's equals body_offset (no
-  // rigid bodies: a million-body chain keeps one array).
+  std::vector<int> value_offset;
+  // The rows of the common chain (hitched_chain: row 3b + j is body b's knife edge, j = 0, and its
+  // hitch's x and y rows, j = 1, 2; 3 and 4 values) or of knife edges alone (knife_chain: row b,
+  // 3 values), each element numbered by its body, as build() checked them to be.
+  enum class Implied : unsigned char { None, Hitched, Knives };
+  Implied rows_implied = Implied::None;
+  std::size_t implied_rows = 0;
+  std::size_t num_rows() const { return rows_implied == Implied::None ? rows.size() : implied_rows; }
+  ElementRow row(std::size_t r) const {
+    if (rows_implied == Implied::None) return rows[r];
+    if (rows_implied == Implied::Knives) return {ElementRow::Knife, static_cast<int>(r)};
+    static constexpr ElementRow::Kind kinds[3] = {ElementRow::Knife, ElementRow::HitchX, ElementRow::HitchY};
+    return {kinds[r % 3], static_cast<int>(r / 3)};
+  }
+  int value_start(std::size_t r) const {
+    if (rows_implied == Implied::None) return value_offset[r];
+    if (rows_implied == Implied::Knives) return static_cast<int>(3 * r);
+    static constexpr int within[3] = {0, 3, 7};
+    return static_cast<int>(11 * (r / 3)) + within[r % 3];
+  }
+  // First velocity entry of each body; empty when body b's is 3b (planar bodies only, in order:
+  // 4 MB for a million bodies). Read it through v_offset().
+  std::vector<int> body_offset;
+  int v_offset(int body) const { return body_offset.empty() ? 3 * body : body_offset[body]; }
+  // First configuration entry of each body; empty when every body's equals its velocity entry (no
+  // rigid bodies: a million-body chain keeps no array).
   std::vector<int> body_q_offset;
-  int q_offset(int body) const { return body_q_offset.empty() ? body_offset[body] : body_q_offset[body]; }
+  int q_offset(int body) const { return body_q_offset.empty() ? v_offset(body) : body_q_offset[body]; }
   // The model's rigid bodies and, per body, its index among them (-1: not rigid; empty when
   // there are none).
   std::vector<RigidBlock> rigid;
@@ -82,7 +107,7 @@ struct ElementSet {
   // The centre of a body (a rod's end): its first configuration and velocity entries and
   // dimension (a planar body's x, y; a rigid body's translation).
   int centre_q(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? q_offset(body) : rigid_body(body).q + 4; }
-  int centre_v(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? body_offset[body] : rigid_body(body).v + 3; }
+  int centre_v(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? v_offset(body) : rigid_body(body).v + 3; }
   int centre_dim(int body) const { return rigid_of.empty() || rigid_of[body] < 0 ? 2 : rigid_body(body).translation; }
   bool has_rigid_forces() const { return has_gravity || !torques.empty() || !body_forces.empty(); }
 

@@ -650,6 +650,31 @@ void ModelBuilder::add_body_force(BodyForce force) {
   elements().body_forces.push_back(std::move(force));
 }
 
+namespace {
+
+// The common chain's rows, and a chain of knife edges alone, follow from the layout: when every
+// row and its first value are those ElementSet::row() and value_start() give, the tables go.
+void imply_rows(detail::ElementSet& set) {
+  using Implied = detail::ElementSet::Implied;
+  const Implied kind = set.hitched_chain ? Implied::Hitched : set.knife_chain ? Implied::Knives : Implied::None;
+  if (kind == Implied::None) return;
+  set.rows_implied = kind;
+  set.implied_rows = set.rows.size();
+  bool same = true;
+  for (std::size_t r = 0; same && r < set.rows.size(); ++r) {
+    const detail::ElementRow a = set.rows[r], b = set.row(r);
+    same = a.kind == b.kind && a.part == b.part && a.element == b.element && set.value_offset[r] == set.value_start(r);
+  }
+  if (!same) {  // rows added in another order than the layout's
+    set.rows_implied = Implied::None;
+    return;
+  }
+  std::vector<detail::ElementRow>().swap(set.rows);
+  std::vector<int>().swap(set.value_offset);
+}
+
+}  // namespace
+
 // Hands the elements' callbacks to the model and derives the chain layout (element_set.hpp).
 void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementSet> set) const {
   if (!set) return;
@@ -672,8 +697,12 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
                                        [](const RigidBlock& r) { return r.translation == 3; }))
     fail("gravity: no rigid body of the model moves in 3-D (translation 3): it would act on nothing");
   set->value_offset.assign(model.pattern_.row_ptr.begin(), model.pattern_.row_ptr.end() - 1);
-  sparse::reserve_buffer(set->body_offset, model.bodies_.size());
-  for (const Body& b : model.bodies_) set->body_offset.push_back(b.offset);
+  bool thirds = true;  // body b's velocity entries start at 3b: no array (ElementSet::v_offset)
+  for (std::size_t b = 0; thirds && b < model.bodies_.size(); ++b) thirds = model.bodies_[b].offset == 3 * static_cast<int>(b);
+  if (!thirds) {
+    sparse::reserve_buffer(set->body_offset, model.bodies_.size());
+    for (const Body& b : model.bodies_) set->body_offset.push_back(b.offset);
+  }
   if (model.has_rigid_bodies()) {
     set->rigid = model.rigid_;
     set->rigid_of.assign(model.bodies_.size(), -1);
@@ -746,6 +775,7 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
     set->chain_count = chain ? bodies : 0;
     if (set->chain_uniform)  // the passes read the first and the last entry (chain_bodies)
       set->chain = std::vector<detail::ChainBody>{set->chain.front(), set->chain.back()};
+    imply_rows(*set);
   }
 
   const std::shared_ptr<const detail::ElementSet> e = set;

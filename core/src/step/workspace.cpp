@@ -98,27 +98,41 @@ HeldCaches Workspace::make_held() const {
   // The common chain's sweeps leave mu unwritten (chain_sweep.cpp): its values, when asked for,
   // are made from the sin/cos the set keeps, so one buffer serves both sets (swap_held).
   h.shares_mu_ = fused() && model_->element_set()->hitched_chain;
-  sparse::zero_buffer(h.mu_q_, mu_q_.size());
+  // The key after a step is the q it arrived at: restored from the two states' q (swap_held).
+  h.shares_key_ = true;
   sparse::zero_buffer(h.chain_sincos_, chain_sincos.size());
   if (!h.shares_mu_) sparse::zero_buffer(h.mu_values_, mu_values.size());
   return h;
 }
 
-void Workspace::swap_held(HeldCaches& h) {
+void Workspace::swap_held(HeldCaches& h, const double* owner_q, const double* visitor_q) {
   using std::swap;
   const bool in = !h.visiting_;
+  const std::size_t key_bytes = sizeof(double) * static_cast<std::size_t>(mu_q_.size());
   // Coming in to a workspace whose mu cannot be made again as it is (not from its sin/cos): the
   // set's own buffer, once (before anything is swapped, so a failed allocation changes nothing).
   if (in && h.shares_mu_ && key_valid_ && mu_valid_ && !(mu_from_sincos_ && sincos_valid_)) {
     sparse::zero_buffer(h.mu_values_, mu_values.size());
     h.shares_mu_ = false;
   }
+  // Likewise the key, where the owner's is not its q (or the two q are not given); the visitor's,
+  // if valid, is its q (kept so on its way out), and is lost where that q is not given.
+  if (in && h.shares_key_ &&
+      (!owner_q || !visitor_q || (key_valid_ && std::memcmp(mu_q_.data(), owner_q, key_bytes) != 0))) {
+    sparse::zero_buffer(h.mu_q_, mu_q_.size());
+    h.shares_key_ = false;
+    if (visitor_q && h.key_valid_)
+      std::memcpy(h.mu_q_.data(), visitor_q, key_bytes);
+    else
+      h.key_valid_ = h.mu_valid_ = h.factor_valid_ = h.sincos_valid_ = h.parted_ = false;
+  }
+  if (in && h.shares_key_ && h.key_valid_) std::memcpy(mu_q_.data(), visitor_q, key_bytes);
   h.visiting_ = in;
   swap(factor_, h.factor_);
   banded_ = factor_ && factor_->backend() == sparse::Backend::Banded ? static_cast<sparse::BandedLdlt*>(factor_.get())
                                                                      : nullptr;
   swap(partitions_, h.partitions_);
-  mu_q_.swap(h.mu_q_);
+  if (!h.shares_key_) mu_q_.swap(h.mu_q_);
   if (!h.shares_mu_) mu_values.swap(h.mu_values_);
   chain_sincos.swap(h.chain_sincos_);
   swap(key_valid_, h.key_valid_);
@@ -134,6 +148,14 @@ void Workspace::swap_held(HeldCaches& h) {
   swap(restarted, h.restarted_);
   swap(options_known_, h.options_known_);
   swap(options_, h.options_);
+  if (!in && h.shares_key_) {  // the visitor's key kept as its q, if it is; the owner's put back
+    if (h.key_valid_ && (!visitor_q || std::memcmp(mu_q_.data(), visitor_q, key_bytes) != 0))
+      h.key_valid_ = h.mu_valid_ = h.factor_valid_ = h.sincos_valid_ = h.parted_ = false;
+    if (key_valid_ && owner_q)
+      std::memcpy(mu_q_.data(), owner_q, key_bytes);
+    else  // the q not given on the way out as on the way in: the owner evaluates mu afresh
+      key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = parted_ = false;
+  }
   if (!in && h.shares_mu_) {  // the visitor's values are lost with its visit; the owner's made again
     h.mu_valid_ = false;
     if (key_valid_ && mu_valid_) detail::chain_one_forms_from_sincos(*model_, *this);

@@ -170,7 +170,7 @@ void AccuracyWatch::start_shadow(State& s) {
   Vector lambda, force;  // empty: no allocation
   try {
     if (!held_made_) make_shadow();
-    ws_.swap_held(held_);  // allocates only in a rare case (Workspace::swap_held)
+    ws_.swap_held(held_, s.q.data(), shadow_.q.data());  // allocates only in a rare case (Workspace::swap_held)
   } catch (const std::bad_alloc&) {
     estimate_.failed(s.t, "out-of-memory", "no memory for the accuracy check's shadow step");
     return;
@@ -196,7 +196,7 @@ void AccuracyWatch::start_shadow(State& s) {
     s.lambda.swap(shadow_.lambda);
     s.force.swap(shadow_.force);
   }
-  ws_.swap_held(held_);
+  ws_.swap_held(held_, s.q.data(), shadow_.q.data());
 }
 
 void AccuracyWatch::finish_shadow(const State& s) {

@@ -109,7 +109,7 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
   auto names = [&model](int i) { return std::string(model.velocity_name(i)); };  // for messages
   auto complain = [](const std::string& what) { throw std::invalid_argument("start: " + what); };
   Vector local, local2;
-  const bool element_rows = model.has_elements() && !model.element_set()->rows.empty();
+  const bool element_rows = model.has_elements() && model.element_set()->num_rows() > 0;
   ws.forget_one_forms();  // the start evaluates mu afresh
   const bool generators = std::any_of(model.momentum_maps().begin(), model.momentum_maps().end(),
                                       [](const NamedMomentumMap& m) { return static_cast<bool>(m.generator); });

@@ -7,6 +7,7 @@
 #include <nonholo/scenarios/scene_file.hpp>
 
 #include <nonholo/rattle.hpp>
+#include <nonholo/sparse/big_buffer.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -162,6 +163,7 @@ void RunLoop::set_up() {
   // chain's are 48 MB).
   setup_->q0 = Vector();
   setup_->v0 = Vector();
+  sparse::release_free_memory();  // what set-up freed inside the heap
 }
 
 // A resumed run: the loop's state from the checkpoint (after the options, which prepare_run
