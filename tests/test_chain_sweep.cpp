@@ -126,12 +126,14 @@ TEST(ChainSweep, AgreesWithTheGeneralPathThroughCholmod) {
 // a single body must not be taken for uniform. Each variant steps as the general path does.
 TEST(ChainSweep, AChainDifferingInOneBodyIsReadBodyByBody) {
   const int n = 9;
-  for (int variant = 0; variant < 6; ++variant) {
+  for (int variant = 0; variant < 8; ++variant) {
     ModelBuilder b;
-    auto odd = [&](int i) { return i == (variant == 4 ? n - 1 : 4); };  // the one body that differs
+    // The one body that differs: the fifth, the last (4), the first (6), the second (7; the
+    // builder then keeps the first as the common entry until the second differs).
+    auto odd = [&](int i) { return i == (variant == 4 ? n - 1 : variant == 6 ? 0 : variant == 7 ? 1 : 4); };
     for (int i = 0; i < n; ++i) {
       const std::string s = std::to_string(i);
-      b.add_planar_body({"x" + s, "y" + s, "theta" + s}, odd(i) && (variant == 0 || variant == 4) ? 1.7 : 1.0,
+      b.add_planar_body({"x" + s, "y" + s, "theta" + s}, odd(i) && (variant == 0 || (variant >= 4 && variant != 5)) ? 1.7 : 1.0,
                         odd(i) && variant == 1 ? 0.9 : 0.5);
     }
     for (int i = 0; i < n; ++i) {

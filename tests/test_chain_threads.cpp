@@ -124,7 +124,7 @@ TEST(ChainThreads, TheTailsBandLivesInTheChainsOwnBand) {
       EXPECT_EQ(band.spare_rows(), detail::kTailSpareRows);
       EXPECT_EQ(cp.tail->row(0), band.row(3 * cp.tail_first)) << threads << " threads";
       EXPECT_EQ(cp.tail->row(cp.tail->size()), band.row(band.size() + band.spare_rows()));
-      EXPECT_EQ(cp.tail->numeric_state(), nullptr);
+      EXPECT_EQ(cp.tail->numeric_state().data, nullptr);
       ws.swap_held(held);
     }
   }

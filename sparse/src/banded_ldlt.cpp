@@ -28,7 +28,7 @@ bool band_is_compact(const SymmetricPattern& pattern) {
 BandedLdlt::BandedLdlt(const SymmetricPattern& pattern)
     : Factorization(pattern.size), kd_(half_bandwidth(pattern)) {
   check_pattern(pattern);
-  fill_buffer(band_, static_cast<std::size_t>(pattern.size) * (kd_ + 1), 0.0);
+  zero_buffer(band_, static_cast<std::size_t>(pattern.size) * (kd_ + 1));
   data_ = band_.data();
   position_.resize(pattern.nnz());
   for (int j = 0; j < pattern.size; ++j)
@@ -51,7 +51,7 @@ BandedLdlt::BandedLdlt(int size, int kd, int spare_rows) : Factorization(size), 
     throw std::invalid_argument("BandedLdlt: size " + std::to_string(size) + " and half-bandwidth " +
                                 std::to_string(kd) + " (at most " + std::to_string(kBandedMaxBandwidth) +
                                 "), spare rows " + std::to_string(spare_rows));
-  fill_buffer(band_, static_cast<std::size_t>(size + spare_rows) * (kd_ + 1), 0.0);
+  zero_buffer(band_, static_cast<std::size_t>(size + spare_rows) * (kd_ + 1));
   data_ = band_.data();
   work_.assign(kd_ + 1, 0.0);
   has_pattern_ = false;

@@ -652,6 +652,113 @@ void ModelBuilder::add_body_force(BodyForce force) {
 
 namespace {
 
+// The chain layout (element_set.hpp) from rows in body order and no springs, body by body: while
+// every body but the last is alike (generated chains) only the common entry and the last are
+// kept, never an entry per body (80 MB for a million bodies, written and thrown away); all of them
+// from the first body that differs. False, with `chain` left to be cleared, if the rows do not
+// run body by body, a knife edge before its body's hitch.
+bool stream_chain(detail::ElementSet& set, const double* w, int bodies) {
+  using detail::ChainBody;
+  std::vector<ChainBody>& out = set.chain;
+  out.clear();
+  bool uniform = bodies >= 2;
+  ChainBody first{}, last{};
+  auto fresh = [w, bodies](int b) {
+    return b < bodies ? ChainBody{w[3 * b], w[3 * b + 1], w[3 * b + 2], 0, 0, 0, 0, 0, 0, 0} : ChainBody{};
+  };
+  auto emit = [&](int b, const ChainBody& e) {  // bodies come in order 0, 1, ..., bodies - 1
+    if (b == bodies - 1) {
+      last = e;
+    } else if (b == 0) {
+      first = e;
+    } else if (uniform && !same_bits(e, first)) {
+      uniform = false;
+      sparse::reserve_buffer(out, static_cast<std::size_t>(bodies));
+      out.assign(static_cast<std::size_t>(b), first);
+    }
+    if (!uniform && b != bodies - 1) out.push_back(e);
+  };
+  int at = 0;  // the body whose rows come now; those before it are emitted
+  ChainBody cur = fresh(0);
+  auto move_to = [&](int b) {
+    for (; at < b; cur = fresh(++at)) emit(at, cur);
+  };
+  for (const detail::ElementRow& row : set.rows) {
+    if (row.kind == detail::ElementRow::Knife) {
+      const KnifeEdge& e = set.knife_edges[row.element];
+      if (e.body < at) return false;
+      move_to(e.body);
+      if (cur.flags != 0) return false;
+      cur.a = e.a;
+      cur.flags |= detail::kChainKnife;
+    } else if (row.kind == detail::ElementRow::HitchX) {
+      const Hitch& h = set.hitches[row.element];
+      if (h.front != h.rear + 1 || h.rear < at) return false;
+      move_to(h.rear);
+      if (cur.flags & detail::kChainHitch) return false;
+      cur.d = h.d;
+      cur.f = h.f;
+      cur.flags |= detail::kChainHitch;
+    }
+  }
+  move_to(bodies);
+  if (uniform) {
+    out = {first, last};
+  } else {
+    if (bodies == 1) out.clear();
+    out.push_back(last);
+  }
+  set.chain_uniform = uniform;
+  set.chain_count = bodies;
+  return true;
+}
+
+// The same with springs (in any order): an entry per body first, then kept compact if uniform.
+bool chain_with_springs(detail::ElementSet& set, const double* w, int bodies) {
+  sparse::reserve_buffer(set.chain, static_cast<std::size_t>(bodies));
+  set.chain.resize(static_cast<std::size_t>(bodies));
+  for (int b = 0; b < bodies; ++b) set.chain[b] = {w[3 * b], w[3 * b + 1], w[3 * b + 2], 0, 0, 0, 0, 0, 0, 0};
+  bool chain = true;
+  int at = 0;  // rows may only move on to later bodies, knife edge before hitch
+  for (std::size_t r = 0; chain && r < set.rows.size(); ++r) {
+    const detail::ElementRow& row = set.rows[r];
+    if (row.kind == detail::ElementRow::Knife) {
+      const KnifeEdge& e = set.knife_edges[row.element];
+      auto& cb = set.chain[e.body];
+      chain = e.body >= at && cb.flags == 0;
+      cb.a = e.a;
+      cb.flags |= detail::kChainKnife;
+      at = e.body;
+    } else if (row.kind == detail::ElementRow::HitchX) {
+      const Hitch& h = set.hitches[row.element];
+      chain = h.front == h.rear + 1 && h.rear >= at && !(set.chain[h.rear].flags & detail::kChainHitch);
+      if (!chain) break;
+      auto& cb = set.chain[h.rear];
+      cb.d = h.d;
+      cb.f = h.f;
+      cb.flags |= detail::kChainHitch;
+      at = h.rear;
+    }
+  }
+  for (const TorsionalSpring& s : set.springs) {
+    if (std::abs(s.first - s.second) != 1) chain = false;
+    if (!chain) break;
+    // Written in D = theta_b - theta_{b+1}: a spring from b+1 to b has rest -r in it.
+    const double rest = s.first < s.second ? s.rest : -s.rest;
+    auto& cb = set.chain[std::min(s.first, s.second)];
+    cb.k += s.k;
+    cb.kr += s.k * rest;
+    cb.krr += s.k * rest * rest;
+  }
+  if (!chain) return false;
+  set.chain_uniform = bodies >= 2;
+  for (int b = 1; set.chain_uniform && b + 1 < bodies; ++b) set.chain_uniform = same_bits(set.chain[b], set.chain[0]);
+  set.chain_count = bodies;
+  if (set.chain_uniform)  // the passes read the first and the last entry (chain_bodies)
+    set.chain = std::vector<detail::ChainBody>{set.chain.front(), set.chain.back()};
+  return true;
+}
+
 // The common chain's rows, and a chain of knife edges alone, follow from the layout: when every
 // row and its first value are those ElementSet::row() and value_start() give, the tables go.
 void imply_rows(detail::ElementSet& set) {
@@ -717,51 +824,20 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
   bool chain = model.inverse_mass_.is_diagonal() && !model.has_rigid_bodies();
   for (int b = 0; chain && b < bodies; ++b) chain = model.bodies_[b].size == 3 && model.bodies_[b].offset == 3 * b;
   for (std::size_t r = 0; chain && r < element_rows; ++r) chain = !set->rows[r].rigid();
+  if (chain && set->springs.empty()) {
+    chain = stream_chain(*set, model.inverse_mass_.diagonal(), bodies);
+  } else if (chain) {
+    chain = chain_with_springs(*set, model.inverse_mass_.diagonal(), bodies);
+  }
+  if (!chain) std::vector<detail::ChainBody>().swap(set->chain);
   if (chain) {
-    sparse::reserve_buffer(set->chain, static_cast<std::size_t>(bodies));
-    set->chain.resize(static_cast<std::size_t>(bodies));
-    const double* w = model.inverse_mass_.diagonal();
-    for (int b = 0; b < bodies; ++b) set->chain[b] = {w[3 * b], w[3 * b + 1], w[3 * b + 2], 0, 0, 0, 0, 0, 0, 0};
-    int at = 0;  // rows may only move on to later bodies, knife edge before hitch
-    for (std::size_t r = 0; chain && r < element_rows; ++r) {
-      const detail::ElementRow& row = set->rows[r];
-      if (row.kind == detail::ElementRow::Knife) {
-        const KnifeEdge& e = set->knife_edges[row.element];
-        auto& cb = set->chain[e.body];
-        chain = e.body >= at && cb.flags == 0;
-        cb.a = e.a;
-        cb.flags |= detail::kChainKnife;
-        at = e.body;
-      } else if (row.kind == detail::ElementRow::HitchX) {
-        const Hitch& h = set->hitches[row.element];
-        chain = h.front == h.rear + 1 && h.rear >= at && !(set->chain[h.rear].flags & detail::kChainHitch);
-        if (!chain) break;
-        auto& cb = set->chain[h.rear];
-        cb.d = h.d;
-        cb.f = h.f;
-        cb.flags |= detail::kChainHitch;
-        at = h.rear;
-      }
-    }
-    for (const TorsionalSpring& s : set->springs) {
-      if (std::abs(s.first - s.second) != 1) chain = false;
-      if (!chain) break;
-      // Written in D = theta_b - theta_{b+1}: a spring from b+1 to b has rest -r in it.
-      const double rest = s.first < s.second ? s.rest : -s.rest;
-      auto& cb = set->chain[std::min(s.first, s.second)];
-      cb.k += s.k;
-      cb.kr += s.k * rest;
-      cb.krr += s.k * rest * rest;
-    }
-    if (!chain) set->chain.clear();
-    set->chain_uniform = chain && bodies >= 2;
-    for (int b = 1; set->chain_uniform && b + 1 < bodies; ++b) set->chain_uniform = same_bits(set->chain[b], set->chain[0]);
+    const detail::ChainBodies body = set->chain_bodies();
     set->knife_chain = chain;
-    for (int b = 0; set->knife_chain && b < bodies; ++b) set->knife_chain = set->chain[b].flags == detail::kChainKnife;
+    for (int b = 0; set->knife_chain && b < bodies; ++b) set->knife_chain = body[b].flags == detail::kChainKnife;
     // Group b's rows all touch body b, and so does group b-1's hitch (its front): C couples
     // the two, and group b's last row reaches back to the first hitch row of group b-1.
-    for (int b = 0, first = 0, hitch_before = -1; chain && b < bodies; ++b) {
-      const int flags = set->chain[b].flags;
+    for (int b = 0, first = 0, hitch_before = -1; b < bodies; ++b) {
+      const int flags = body[b].flags;
       const int count = ((flags & detail::kChainKnife) ? 1 : 0) + ((flags & detail::kChainHitch) ? 2 : 0);
       const int last = first + count - 1;
       if (count > 0) set->chain_bandwidth = std::max(set->chain_bandwidth, last - (hitch_before >= 0 ? hitch_before : first));
@@ -770,11 +846,8 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
     }
     set->hitched_chain = chain && bodies >= 3;  // two bodies have kd = 2: the generic sweeps
     for (int b = 0; set->hitched_chain && b < bodies; ++b)
-      set->hitched_chain = set->chain[b].flags == (b + 1 < bodies ? detail::kChainKnife | detail::kChainHitch
-                                                                   : detail::kChainKnife);
-    set->chain_count = chain ? bodies : 0;
-    if (set->chain_uniform)  // the passes read the first and the last entry (chain_bodies)
-      set->chain = std::vector<detail::ChainBody>{set->chain.front(), set->chain.back()};
+      set->hitched_chain = body[b].flags == (b + 1 < bodies ? detail::kChainKnife | detail::kChainHitch
+                                                            : detail::kChainKnife);
     imply_rows(*set);
   }
 

@@ -244,9 +244,10 @@ void Workspace::save_held(OutArchive& a) const {
   if (mu_valid_) a(mu_values);
   if (sincos_valid_) a(chain_sincos);
   // A partitioned factorisation is not saved: the loading workspace factorises again.
-  std::vector<double>* numbers = factor_valid_ && !parted_ && factor_ ? factor_->numeric_state() : nullptr;
-  a(numbers != nullptr);
-  if (numbers) a(Eigen::Map<const Vector>(numbers->data(), static_cast<Eigen::Index>(numbers->size())));
+  const sparse::Factorization::NumericState numbers =
+      factor_valid_ && !parted_ && factor_ ? factor_->numeric_state() : sparse::Factorization::NumericState{};
+  a(numbers.data != nullptr);
+  if (numbers.data) a(Eigen::Map<const Vector>(numbers.data, static_cast<Eigen::Index>(numbers.size)));
 }
 
 void Workspace::load_held(InArchive& a, double min_pivot_ratio) {
@@ -258,10 +259,10 @@ void Workspace::load_held(InArchive& a, double min_pivot_ratio) {
   if (mu) a(mu_values);
   if (sincos) a(chain_sincos);
   a(numbers);
-  std::vector<double>* state = factor_ ? factor_->numeric_state() : nullptr;
+  const sparse::Factorization::NumericState state = factor_ ? factor_->numeric_state() : sparse::Factorization::NumericState{};
   if (numbers) {
-    if (!state) throw std::runtime_error("checkpoint: its factorisation is of a banded backend, this run's is not");
-    a(Eigen::Map<Vector>(state->data(), static_cast<Eigen::Index>(state->size())));
+    if (!state.data) throw std::runtime_error("checkpoint: its factorisation is of a banded backend, this run's is not");
+    a(Eigen::Map<Vector>(state.data, static_cast<Eigen::Index>(state.size)));
   }
   key_valid_ = key;
   mu_valid_ = mu;

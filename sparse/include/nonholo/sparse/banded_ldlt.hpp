@@ -6,6 +6,7 @@
 /// after (a multiplication in the solves instead of a division), so that a caller can also fill and eliminate it one row at a time while it streams
 /// over the bodies (the fused chain step, core/src/step/chain/chain_sweep.cpp): eliminate_row() then
 /// forward_row() per row, back_substitute() at the end. No allocation after construction.
+#include <nonholo/sparse/big_buffer.hpp>
 #include <nonholo/sparse/factorization.hpp>
 
 #include <limits>
@@ -92,7 +93,9 @@ class BandedLdlt final : public Factorization {
   ///@}
   FactorStatus solve(const double* b, double* x) override;
   Backend backend() const override { return Backend::Banded; }  ///< Backend::Banded
-  std::vector<double>* numeric_state() override { return owned_ ? &band_ : nullptr; }  ///< the band
+  NumericState numeric_state() override {  ///< the band
+    return owned_ ? NumericState{band_.data(), band_.size()} : NumericState{};
+  }
 
   int bandwidth() const { return kd_; }  ///< kd, the half-bandwidth
   int stride() const { return kd_ + 1; }  ///< entries per row of the band
@@ -221,7 +224,7 @@ class BandedLdlt final : public Factorization {
   FactorStatus no_pattern();
   int kd_;
   bool has_pattern_ = true;
-  std::vector<double> band_;  // empty for a band in the caller's storage
+  BigVector<double> band_;  // empty for a band in the caller's storage; zeros from the kernel
   double* data_ = nullptr;     // band_.data(), or the caller's storage
   int spare_rows_ = 0;
   bool owned_ = true;

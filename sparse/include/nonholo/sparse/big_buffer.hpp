@@ -7,7 +7,9 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <memory>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace nonholo::sparse {
@@ -42,6 +44,45 @@ void zero_buffer(Eigen::PlainObjectBase<Derived>& v, Eigen::Index n) {
   }
   static_assert(std::is_trivially_copyable_v<typename Derived::Scalar>, "zero bytes must be a zero value");
   zero_bytes(v.data(), static_cast<std::size_t>(n) * sizeof(typename Derived::Scalar));
+}
+
+/// An allocator whose construction without a value leaves the element default-initialised (for
+/// a double: unwritten), so that resize() asks for memory without touching it (BigVector).
+template <class T>
+struct NoInitAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = NoInitAllocator<U>;
+  };
+  NoInitAllocator() = default;
+  template <class U>
+  NoInitAllocator(const NoInitAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+/// A vector for large buffers of trivial values: zero_buffer() gives it zeros without writing
+/// fresh pages (a band the step writes before it reads it costs no set-up).
+template <class T>
+using BigVector = std::vector<T, NoInitAllocator<T>>;
+
+/// v holds n zeros (zero_bytes: the kernel's, where the pages are fresh); a new allocation is
+/// advised (advise_huge_pages) before it is first written.
+template <class T>
+void zero_buffer(BigVector<T>& v, std::size_t n) {
+  static_assert(std::is_trivially_copyable_v<T>, "zero bytes must be a zero value");
+  if (v.capacity() < n) {
+    BigVector<T>().swap(v);
+    v.reserve(n);
+    advise_huge_pages(v.data(), n * sizeof(T));
+  }
+  v.resize(n);
+  zero_bytes(v.data(), n * sizeof(T));
 }
 
 /// The same for a std::vector: n copies of value.

@@ -7,6 +7,7 @@
 #include <nonholo/sparse/message.hpp>
 #include <nonholo/sparse/patterns.hpp>
 
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -86,9 +87,13 @@ class Factorization {
 
   virtual Backend backend() const = 0;  ///< which backend this is (never Auto)
   /// The numbers a successful factorisation left (checkpoints: restored, they make solve() give
-  /// what it gave, bit for bit), when the backend exposes them; nullptr otherwise (a checkpoint
-  /// then factorises again).
-  virtual std::vector<double>* numeric_state() { return nullptr; }
+  /// what it gave, bit for bit), when the backend exposes them; data nullptr otherwise (a
+  /// checkpoint then factorises again).
+  struct NumericState {
+    double* data = nullptr;  ///< the numbers, or nullptr
+    std::size_t size = 0;    ///< how many
+  };
+  virtual NumericState numeric_state() { return {}; }
   int size() const { return size_; }  ///< the rows of C
   /// After factorize(): smallest pivot ratio and the row of C where it occurred.
   ///@{
