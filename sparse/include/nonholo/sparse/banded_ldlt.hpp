@@ -80,7 +80,7 @@ class BandedLdlt final : public Factorization {
   /// a band that another one lives in (the chain's tail partition: chain_partitions.hpp).
   BandedLdlt(int size, int kd, int spare_rows);
   /// A band in storage the caller owns (size * (kd + 1) doubles, which must outlive it), filled
-  /// row by row as above; numeric_state() is then nullptr (not saved in checkpoints).
+  /// row by row as above; numeric_state()'s data is then nullptr (not saved in checkpoints).
   BandedLdlt(int size, int kd, double* storage);
 
   FactorStatus factorize(const double* c_values, double min_pivot_ratio) override;

@@ -50,17 +50,21 @@ void zero_buffer(Eigen::PlainObjectBase<Derived>& v, Eigen::Index n) {
 /// a double: unwritten), so that resize() asks for memory without touching it (BigVector).
 template <class T>
 struct NoInitAllocator : std::allocator<T> {
+  /// The same allocator for another element type (what std::allocator_traits asks for).
   template <class U>
   struct rebind {
-    using other = NoInitAllocator<U>;
+    using other = NoInitAllocator<U>;  ///< NoInitAllocator of U
   };
-  NoInitAllocator() = default;
+  NoInitAllocator() = default;  ///< stateless
+  /// From the allocator of another element type (stateless: nothing to copy).
   template <class U>
   NoInitAllocator(const NoInitAllocator<U>&) noexcept {}
+  /// Without a value: default-initialised (a double is left unwritten).
   template <class U>
   void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
     ::new (static_cast<void*>(p)) U;
   }
+  /// With values: constructed from them, as std::allocator does.
   template <class U, class... Args>
   void construct(U* p, Args&&... args) {
     ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);

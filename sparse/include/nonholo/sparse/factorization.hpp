@@ -86,13 +86,14 @@ class Factorization {
   virtual FactorStatus solve(const double* b, double* x) = 0;
 
   virtual Backend backend() const = 0;  ///< which backend this is (never Auto)
-  /// The numbers a successful factorisation left (checkpoints: restored, they make solve() give
-  /// what it gave, bit for bit), when the backend exposes them; data nullptr otherwise (a
-  /// checkpoint then factorises again).
+  /// Where the numbers of a factorisation are (numeric_state()).
   struct NumericState {
     double* data = nullptr;  ///< the numbers, or nullptr
     std::size_t size = 0;    ///< how many
   };
+  /// The numbers a successful factorisation left (checkpoints: restored, they make solve() give
+  /// what it gave, bit for bit), when the backend exposes them; data nullptr otherwise (a
+  /// checkpoint then factorises again).
   virtual NumericState numeric_state() { return {}; }
   int size() const { return size_; }  ///< the rows of C
   /// After factorize(): smallest pivot ratio and the row of C where it occurred.
