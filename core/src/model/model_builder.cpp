@@ -652,12 +652,13 @@ void ModelBuilder::add_body_force(BodyForce force) {
 
 namespace {
 
-// The chain layout (element_set.hpp) from rows in body order and no springs, body by body: while
-// every body but the last is alike (generated chains) only the common entry and the last are
-// kept, never an entry per body (80 MB for a million bodies, written and thrown away); all of them
-// from the first body that differs. False, with `chain` left to be cleared, if the rows do not
-// run body by body, a knife edge before its body's hitch.
-bool stream_chain(detail::ElementSet& set, const double* w, int bodies) {
+// The chain layout (element_set.hpp) from rows in body order, body by body: while every body
+// but the last is alike (generated chains) only the common entry and the last are kept, never an
+// entry per body (80 MB for a million bodies, written, compared and thrown away); all of them from
+// the first body that differs. Springs, in any order, then need an entry per body for their sums
+// (kept compact again if the bodies stay alike). False if the rows do not run body by body, a
+// knife edge before its body's hitch, or a spring joins bodies that are not neighbours.
+bool chain_layout(detail::ElementSet& set, const double* w, int bodies) {
   using detail::ChainBody;
   std::vector<ChainBody>& out = set.chain;
   out.clear();
@@ -702,60 +703,30 @@ bool stream_chain(detail::ElementSet& set, const double* w, int bodies) {
     }
   }
   move_to(bodies);
-  if (uniform) {
+  if (uniform && set.springs.empty()) {
     out = {first, last};
   } else {
-    if (bodies == 1) out.clear();
+    if (uniform) {  // springs: an entry per body
+      sparse::reserve_buffer(out, static_cast<std::size_t>(bodies));
+      out.assign(static_cast<std::size_t>(bodies - 1), first);
+    }
     out.push_back(last);
   }
-  set.chain_uniform = uniform;
+  set.chain_uniform = uniform && set.springs.empty();
   set.chain_count = bodies;
-  return true;
-}
-
-// The same with springs (in any order): an entry per body first, then kept compact if uniform.
-bool chain_with_springs(detail::ElementSet& set, const double* w, int bodies) {
-  sparse::reserve_buffer(set.chain, static_cast<std::size_t>(bodies));
-  set.chain.resize(static_cast<std::size_t>(bodies));
-  for (int b = 0; b < bodies; ++b) set.chain[b] = {w[3 * b], w[3 * b + 1], w[3 * b + 2], 0, 0, 0, 0, 0, 0, 0};
-  bool chain = true;
-  int at = 0;  // rows may only move on to later bodies, knife edge before hitch
-  for (std::size_t r = 0; chain && r < set.rows.size(); ++r) {
-    const detail::ElementRow& row = set.rows[r];
-    if (row.kind == detail::ElementRow::Knife) {
-      const KnifeEdge& e = set.knife_edges[row.element];
-      auto& cb = set.chain[e.body];
-      chain = e.body >= at && cb.flags == 0;
-      cb.a = e.a;
-      cb.flags |= detail::kChainKnife;
-      at = e.body;
-    } else if (row.kind == detail::ElementRow::HitchX) {
-      const Hitch& h = set.hitches[row.element];
-      chain = h.front == h.rear + 1 && h.rear >= at && !(set.chain[h.rear].flags & detail::kChainHitch);
-      if (!chain) break;
-      auto& cb = set.chain[h.rear];
-      cb.d = h.d;
-      cb.f = h.f;
-      cb.flags |= detail::kChainHitch;
-      at = h.rear;
-    }
-  }
+  if (set.springs.empty()) return true;
   for (const TorsionalSpring& s : set.springs) {
-    if (std::abs(s.first - s.second) != 1) chain = false;
-    if (!chain) break;
+    if (std::abs(s.first - s.second) != 1) return false;
     // Written in D = theta_b - theta_{b+1}: a spring from b+1 to b has rest -r in it.
     const double rest = s.first < s.second ? s.rest : -s.rest;
-    auto& cb = set.chain[std::min(s.first, s.second)];
+    auto& cb = out[static_cast<std::size_t>(std::min(s.first, s.second))];
     cb.k += s.k;
     cb.kr += s.k * rest;
     cb.krr += s.k * rest * rest;
   }
-  if (!chain) return false;
   set.chain_uniform = bodies >= 2;
-  for (int b = 1; set.chain_uniform && b + 1 < bodies; ++b) set.chain_uniform = same_bits(set.chain[b], set.chain[0]);
-  set.chain_count = bodies;
-  if (set.chain_uniform)  // the passes read the first and the last entry (chain_bodies)
-    set.chain = std::vector<detail::ChainBody>{set.chain.front(), set.chain.back()};
+  for (int b = 1; set.chain_uniform && b + 1 < bodies; ++b) set.chain_uniform = same_bits(out[b], out[0]);
+  if (set.chain_uniform) out = std::vector<ChainBody>{out.front(), out.back()};
   return true;
 }
 
@@ -824,12 +795,12 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
   bool chain = model.inverse_mass_.is_diagonal() && !model.has_rigid_bodies();
   for (int b = 0; chain && b < bodies; ++b) chain = model.bodies_[b].size == 3 && model.bodies_[b].offset == 3 * b;
   for (std::size_t r = 0; chain && r < element_rows; ++r) chain = !set->rows[r].rigid();
-  if (chain && set->springs.empty()) {
-    chain = stream_chain(*set, model.inverse_mass_.diagonal(), bodies);
-  } else if (chain) {
-    chain = chain_with_springs(*set, model.inverse_mass_.diagonal(), bodies);
+  if (chain) chain = chain_layout(*set, model.inverse_mass_.diagonal(), bodies);
+  if (!chain) {
+    std::vector<detail::ChainBody>().swap(set->chain);
+    set->chain_uniform = false;
+    set->chain_count = 0;
   }
-  if (!chain) std::vector<detail::ChainBody>().swap(set->chain);
   if (chain) {
     const detail::ChainBodies body = set->chain_bodies();
     set->knife_chain = chain;
