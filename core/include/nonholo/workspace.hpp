@@ -324,6 +324,7 @@ class HeldCaches {
 
  private:
   friend class Workspace;
+  void forget() { key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = parted_ = false; }  // as forget_one_forms()
   std::unique_ptr<sparse::Factorization> factor_;
   std::unique_ptr<detail::ChainPartitions> partitions_;
   // chain_sincos_prev is scratch within a holonomic step: the workspace's serves both sets.

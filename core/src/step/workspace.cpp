@@ -124,7 +124,7 @@ void Workspace::swap_held(HeldCaches& h, const double* owner_q, const double* vi
     if (visitor_q && h.key_valid_)
       std::memcpy(h.mu_q_.data(), visitor_q, key_bytes);
     else
-      h.key_valid_ = h.mu_valid_ = h.factor_valid_ = h.sincos_valid_ = h.parted_ = false;
+      h.forget();
   }
   if (in && h.shares_key_ && h.key_valid_) std::memcpy(mu_q_.data(), visitor_q, key_bytes);
   h.visiting_ = in;
@@ -150,11 +150,11 @@ void Workspace::swap_held(HeldCaches& h, const double* owner_q, const double* vi
   swap(options_, h.options_);
   if (!in && h.shares_key_) {  // the visitor's key kept as its q, if it is; the owner's put back
     if (h.key_valid_ && (!visitor_q || std::memcmp(mu_q_.data(), visitor_q, key_bytes) != 0))
-      h.key_valid_ = h.mu_valid_ = h.factor_valid_ = h.sincos_valid_ = h.parted_ = false;
+      h.forget();
     if (key_valid_ && owner_q)
       std::memcpy(mu_q_.data(), owner_q, key_bytes);
     else  // the q not given on the way out as on the way in: the owner evaluates mu afresh
-      key_valid_ = mu_valid_ = factor_valid_ = sincos_valid_ = parted_ = false;
+      forget_one_forms();
   }
   if (!in && h.shares_mu_) {  // the visitor's values are lost with its visit; the owner's made again
     h.mu_valid_ = false;
