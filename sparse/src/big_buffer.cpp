@@ -30,7 +30,8 @@ void advise_huge_pages(void* data, std::size_t bytes) {
 }
 
 void release_free_memory() {
-#if defined(__GLIBC__)
+// Sanitizers bring their own allocator: glibc's arenas are not in use (malloc_trim would crash).
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
   (void)malloc_trim(0);
 #endif
 }

@@ -126,6 +126,9 @@ TrajectoryResult RunLoop::run() {
   return result();
 }
 
+// Models with this many coordinates and more hand set-up's freed heap back (8 MB vectors).
+constexpr int kTrimFromCoordinates = 1 << 20;
+
 // "setting up sleigh_chain (1000000 bodies): building model...": the body count from the
 // parameters until the model says.
 void RunLoop::set_up() {
@@ -163,7 +166,9 @@ void RunLoop::set_up() {
   // chain's are 48 MB).
   setup_->q0 = Vector();
   setup_->v0 = Vector();
-  sparse::release_free_memory();  // what set-up freed inside the heap
+  // What set-up freed inside the heap, for a model whose buffers are large (not each small
+  // trajectory of a batch: the trim walks and locks every arena).
+  if (setup_->model.num_configuration() >= kTrimFromCoordinates) sparse::release_free_memory();
 }
 
 // A resumed run: the loop's state from the checkpoint (after the options, which prepare_run
