@@ -13,6 +13,7 @@
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
+#include "support/rigid_watch.hpp"
 #include "support/scenes.hpp"
 #include "support/bitwise_equal.hpp"
 #include "support/expect_error.hpp"
@@ -30,6 +31,8 @@ namespace {
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 using testing::scene;
+using testing::watch;
+using testing::Watch;
 
 RattleOptions options(double h, const char* restart = "auto",
                       RotationLagrangian rotation = RotationLagrangian::MoserVeselov,
@@ -40,52 +43,6 @@ RattleOptions options(double h, const char* restart = "auto",
   o.hitch = hitch;
   set_restart(o.restart, restart);
   return o;
-}
-
-// Veselova's integral F = |I Omega|^2 - (I Omega . gamma)^2, evaluated with the pre-momentum
-// p_- = p~ - (h/2) force at q_k (the reflection changes p only along gamma, and W^T turns p and
-// gamma alike: exact in the scheme).
-double veselova_integral(const State& s, double h) {
-  const Eigen::Vector3d p = (s.p - 0.5 * h * s.force).head<3>();
-  const Eigen::Vector3d gamma = quaternion_matrix(s.q.head<4>()).row(2).transpose();
-  return p.squaredNorm() - std::pow(p.dot(gamma), 2);
-}
-
-struct Watch {
-  double energy_post = 0, residual = 0, norm = 0, maps = 0, veselova = 0, work = 0;
-  long restarts = 0;
-};
-
-// 10^5 steps of a scene: the largest deviations of its invariants.
-Watch watch(const scenarios::SceneSetup& setup, const RattleOptions& o, long steps) {
-  const Model& model = setup.model;
-  Workspace ws(model);
-  State s = start_from_velocity(model, ws, setup.t0, setup.q0, setup.v0);
-  const double h = o.h;
-  const Diagnostics d0 = diagnose(model, ws, s, h);
-  Vector j0(model.momentum_maps().size()), j(model.momentum_maps().size());
-  evaluate_momentum_maps(model, s, j0);
-  const double f0 = veselova_integral(s, h);
-  double work = 0.0, power = external_power(model, ws, s);
-  Watch w;
-  for (long k = 0; k < steps; ++k) {
-    const Status status = step(model, ws, s, o);
-    EXPECT_EQ(status, Status::Ok) << ws.message();
-    if (status != Status::Ok) break;
-    const Diagnostics d = diagnose(model, ws, s, h);
-    work += h * power;  // E_post(k + 1/2) - E_post(k - 1/2) = h F_k^T M^-1 p~_k
-    power = external_power(model, ws, s);
-    w.energy_post = std::max(w.energy_post, std::abs(d.energy_post - d0.energy_post - work) /
-                                                std::max(std::abs(d0.energy_post), std::abs(work)));
-    w.residual = std::max(w.residual, d.residual);
-    for (const RigidBlock& r : model.rigid_bodies()) w.norm = std::max(w.norm, std::abs(s.q.segment<4>(r.q).norm() - 1.0));
-    evaluate_momentum_maps(model, s, j);
-    w.maps = std::max(w.maps, (j - j0).lpNorm<Eigen::Infinity>());
-    w.veselova = std::max(w.veselova, std::abs(veselova_integral(s, h) - f0) / f0);
-  }
-  w.work = work;
-  w.restarts = s.restarts;
-  return w;
 }
 
 TEST(RigidStep, InvariantsOfEveryThreeDSceneOverTenToTheFiveSteps) {

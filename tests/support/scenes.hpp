@@ -7,9 +7,12 @@
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
+#include <Eigen/Geometry>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -21,6 +24,32 @@ inline scenarios::SceneSetup scene(const std::string& name, const std::vector<st
   auto p = info.defaults();
   for (const auto& s : sets) p.assign(s);
   return info.build(p);
+}
+
+// A 3-D scene's inertia parameters I11 ... I23 for the symmetric matrix `inertia`, to 17 digits.
+inline std::vector<std::string> inertia_sets(const Eigen::Matrix3d& inertia) {
+  std::vector<std::string> sets;
+  const char* names[] = {"I11", "I22", "I33", "I12", "I13", "I23"};
+  const int rows[] = {0, 1, 2, 0, 0, 1}, cols[] = {0, 1, 2, 1, 2, 2};
+  for (int k = 0; k < 6; ++k) {
+    char text[64];
+    std::snprintf(text, sizeof text, "%s=%.17g", names[k], inertia(rows[k], cols[k]));
+    sets.emplace_back(text);
+  }
+  return sets;
+}
+
+// The body shapes of the 3-D tests: principal moments turned by R = rot((1, 1, 1), 0.7), a
+// non-diagonal inertia (moments 1:2:3), and the diagonal plate 1:10:11 and needle 1:100:100.
+struct BodyShape {
+  const char* name;
+  Eigen::Matrix3d inertia;
+};
+inline std::vector<BodyShape> body_shapes() {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 1, 1).normalized()).toRotationMatrix();
+  return {{"1:2:3 rotated", r * Eigen::Vector3d(1, 2, 3).asDiagonal() * r.transpose()},
+          {"plate 1:10:11", Eigen::Vector3d(0.1, 1.0, 1.1).asDiagonal().toDenseMatrix()},
+          {"needle 1:100:100", Eigen::Vector3d(0.01, 1.0, 1.0).asDiagonal().toDenseMatrix()}};
 }
 
 // The state after whole steps of o.h (composed steps for order 4, 6) from the scene's start to

@@ -22,7 +22,8 @@ Status parasitic_amplitude(const Model& model, Workspace& ws, const State& state
 /// the part of p~ that the model's momentum maps see (they must be linear in p, as momentum
 /// maps are) and s solves the scalar equation that keeps the energy of the arriving
 /// post-momentum p~ - (h/2)(f + mu^T lambda~), plus (V(q_{k-1}) + V(q_k))/2 with a potential,
-/// unchanged. With f = 0 that is the invariant of the method; with external forces it keeps the
+/// unchanged. Where the maps see all of p~ (a single Chaplygin ball) p~ stays and lambda~ <-
+/// lambda_F + s^2 lambda_B (lambda_s's ray, scaled to the norm that keeps the energy). With f = 0 that is the invariant of the method; with external forces it keeps the
 /// discrete work-energy balance exact. The constraint residual stays at round-off and every
 /// momentum map is unchanged (to the last bit when it reads coordinates no one-form touches).
 /// Uses the factorisation of C(q) (factorises only when the workspace does not hold it) and

@@ -5,6 +5,7 @@
 // lambda_s(q, p~_J + s p~_r) = lambda_F + lambda_0 + s lambda_1 + s^2 lambda_2, and p_-(s) =
 // a + s b + s^2 c with fixed vectors a, b, c: its energy is a quartic in s, and with a
 // potential the averaged V of docs/design.md is added. One scalar equation keeps the energy.
+// Where the maps see all of p~, p~ stays and lambda~ = lambda_F + s^2 lambda_B (b = 0).
 #include <nonholo/restart.hpp>
 
 #include <nonholo/diagnostics.hpp>
@@ -314,8 +315,17 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   Vector& a = ws.p_hat;
   Vector& c = ws.p_half;
   Vector& lambda_const = ws.scratch_m;  // lambda_F + lambda_0 (- x)
+  bool all_seen = false;
   if (maps) {
     if ((status = split_by_maps(model, ws, q, p)) != Status::Ok) return status;
+    // When the momentum maps see all of p~ (their generators span D: a single Chaplygin ball),
+    // p~ is theirs to keep, and with it (1/2) p~^T M^-1 p~: E_post = that + (h^2/8) |lambda~|_C^2
+    // (f = 0) fixes |lambda~|_C. The restart can only turn lambda~ towards lambda_s on that
+    // ellipsoid: lambda~ <- lambda_F + s^2 lambda_B, p~ unchanged (docs/design.md section 10.3).
+    all_seen = inverse_mass_dot(model, ws.map_rest, ws.map_rest, ws.scratch_n2) <=
+               64.0 * kEps * inverse_mass_dot(model, p, p, ws.scratch_n2);
+  }
+  if (maps && !all_seen) {
     // Polarisation of the bias: B(v_J + s v_r) = B(v_J) + s B_1 + s^2 B_2 from s = 0, 1, -1.
     if ((status = detail::constraint_bias(model, ws, q, ws.scratch_n, ws.rhs)) != Status::Ok) return status;
     if ((status = solve_negated(ws, ws.rhs, ws.map_lambda0.data())) != Status::Ok) return status;
@@ -335,7 +345,10 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   model.mu_transpose_times(ws.mu_values.data(), lambda_const.data(), a.data());
   if (forced) a += applied;
   a *= -half;
-  if (maps) {
+  if (all_seen) {  // p_-(s) = a + s^2 c: p~ stays
+    a += p;
+    ws.map_linear.setZero();
+  } else if (maps) {
     a += p - ws.map_rest;
     model.mu_transpose_times(ws.mu_values.data(), ws.map_lambda1.data(), ws.map_linear.data());
     ws.map_linear = ws.map_rest - half * ws.map_linear;
@@ -344,20 +357,20 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   model.mu_transpose_times(ws.mu_values.data(), ws.lambda_s.data(), c.data());
   c *= -half;
 
-  // When the momentum maps see all of p~ (their generators span D: a single Chaplygin ball),
-  // p~ is theirs to keep and nothing can be scaled: the restart resets lambda~ alone.
-  const bool all_seen = maps && inverse_mass_dot(model, ws.map_rest, ws.map_rest, ws.scratch_n2) <=
-                                    64.0 * kEps * inverse_mass_dot(model, p, p, ws.scratch_n2);
   double s = 1.0, plain = 0.0;
-  if (!all_seen &&
-      !scale_keeping_energy(model, q, a, b, c, target, apply_minv, ws.scratch_n, ws.scratch_n2, previous, s, plain))
+  if (!scale_keeping_energy(model, q, a, b, c, target, apply_minv, ws.scratch_n, ws.scratch_n2, previous, s, plain))
     return ws.fail(Status::RestartFailed,
-                   "no rescale of p~ keeps the post-momentum energy %.17g (energy change of the plain "
-                   "restart %.3g): restart less often or not at all (RattleOptions::restart, --restart)",
+                   all_seen ? "no multiplier keeps the post-momentum energy %.17g (energy change of the plain "
+                              "restart %.3g) where the momentum maps fix p~: restart less often or not at all "
+                              "(RattleOptions::restart, --restart)"
+                            : "no rescale of p~ keeps the post-momentum energy %.17g (energy change of the plain "
+                              "restart %.3g): restart less often or not at all (RattleOptions::restart, --restart)",
                    target, plain);
 
   // The new momentum; with momentum maps, checked before anything is written.
-  if (maps) {
+  if (all_seen) {
+    lambda = lambda_const + (s * s) * ws.lambda_s;
+  } else if (maps) {
     ws.map_linear = p + (s - 1.0) * ws.map_rest;
     if ((status = maps_unchanged(model, ws, q, ws.map_linear)) != Status::Ok) return status;
     p = ws.map_linear;

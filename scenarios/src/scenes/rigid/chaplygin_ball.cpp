@@ -2,8 +2,8 @@
 // rolling without slipping on the horizontal plane (nonholo/elements.hpp RollingBall). Its
 // contact angular momentum R K, K = I Omega + m r^2 gamma x (Omega x gamma), is constant in
 // space: its three components are the momentum maps of horizontal symmetries (declared with
-// ModelBuilder::symmetry, so that restarts keep them), and they span D: the restarts then reset
-// lambda~ alone (docs/guide/rigid-bodies.md).
+// ModelBuilder::symmetry, so that restarts keep them), and they span D: the restarts then keep
+// p~ and turn lambda~ onto lambda_s's ray (docs/design.md section 10.3).
 #include <nonholo/model_builder.hpp>
 #include <nonholo/scenarios/scene.hpp>
 
