@@ -48,6 +48,7 @@ void run_drift(benchmark::State& bench, bool rigid, bool isotropic, RotationLagr
   if (rigid) {
     RigidBody body;
     if (!isotropic) body.inertia << 1, 0, .5, 0, 2, .5, .5, .5, 3;
+    body.any_inertia = true;  // the Suslov scene's test inertia
     b.add_rigid_body(body);
   } else {
     b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);

@@ -222,7 +222,7 @@ TEST(RigidStep, RigidBodyTurningAboutTheVerticalIsThePlanarSleigh) {
   ModelBuilder rb;
   RigidBody body;
   body.mass = m;
-  body.inertia = Eigen::Vector3d(2.0, 3.0, inertia).asDiagonal();
+  body.inertia = Eigen::Vector3d(2.0, 2.5, inertia).asDiagonal();  // physical: 0.7 + 2 >= 2.5
   body.translation = 2;
   rb.add_rigid_body(body);
   rb.add_one_form({0}, "Omega_x = 0");
@@ -337,6 +337,7 @@ TEST(RigidStep, PlanarAndRigidBodiesInOneModel) {
   for (ModelBuilder* b : {&both, &alone_rigid}) {
     RigidBody body;
     body.inertia = inertia;
+    body.any_inertia = true;  // the Suslov scene's test inertia (0.869 + 1.830 < 3.301)
     b->add_rigid_body(body);
     b->add_body_axis_constraint({0, Eigen::Vector3d::UnitZ()});
   }
@@ -379,6 +380,7 @@ TEST(RigidStep, OneFormCallbackOnRigidBodyIsTheElement) {
   ModelBuilder element, callback;
   RigidBody body;
   body.inertia = inertia;
+  body.any_inertia = true;  // the Suslov scene's test inertia (0.869 + 1.830 < 3.301)
   element.add_rigid_body(body);
   element.add_body_axis_constraint({0, Eigen::Vector3d::UnitZ()});
   callback.add_rigid_body(body);
@@ -442,6 +444,20 @@ TEST(RigidStep, BuilderRefusesBadRigidBodiesAndElements) {
   expect_error([&] { ModelBuilder().add_rigid_body(rigid(1, not_symmetric, 0)); }, "inertia is not symmetric");
   expect_error([&] { ModelBuilder().add_rigid_body(rigid(1, bad, 0)); }, "inertia entry (2, 2) is nan");
   expect_error([&] { ModelBuilder().add_rigid_body(rigid(1e-13, id, 3)); }, "too ill-conditioned");
+  // Physical inertias: each principal moment at most the sum of the other two, turned or not; a
+  // flat plate (equality) is one, also when its moments come out of the eigensolver; 1:10:100 is
+  // none, unless asked for.
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d plate = turn * Eigen::Vector3d(1, 10, 11).asDiagonal() * turn.transpose();
+  const Eigen::Matrix3d unphysical = turn * Eigen::Vector3d(1, 10, 100).asDiagonal() * turn.transpose();
+  ModelBuilder().add_rigid_body(rigid(1, plate, 0));
+  expect_error([&] { ModelBuilder().add_rigid_body(rigid(1, Eigen::Vector3d(100, 1, 10).asDiagonal().toDenseMatrix(), 0)); },
+               "rigid body 0: principal moments 1, 10, 100 break the triangle inequality (1 + 10 < 100): no rigid "
+               "body has them");
+  expect_error([&] { ModelBuilder().add_rigid_body(rigid(1, unphysical, 2)); }, "break the triangle inequality");
+  RigidBody on_purpose = rigid(1, unphysical, 2);
+  on_purpose.any_inertia = true;
+  ModelBuilder().add_rigid_body(on_purpose);
   ModelBuilder b;
   b.add_rigid_body(rigid(1, id, 0));
   b.add_rigid_body(rigid(1, id, 2));

@@ -249,6 +249,7 @@ TEST(SceneFile, SuslovFileIsTheModelBuiltByHand) {
   ModelBuilder b;
   RigidBody body;
   body.inertia << 1, 0, 0.5, 0, 2, 0.5, 0.5, 0.5, 3;
+  body.any_inertia = true;  // the test inertia: its moments break the triangle inequality
   b.add_rigid_body(body);
   b.add_body_axis_constraint({0, Eigen::Vector3d::UnitZ()}, "constraints[0] (body_axis on body 0)");
   const Model model = std::move(b).build();
@@ -376,7 +377,7 @@ TEST(SceneFile, RigidBodyMistakesNameThePathAndTheProblem) {
   expect_file_error(file(R"({"mass": 1, "inertia": 1, "position": [0, 0], "angular_velocity": [0, 0, 1]})"),
                     {R"(bodies[0]: key 'angular_velocity' belongs to rigid bodies; this body is planar (add "type": "rigid")"});
   expect_file_error(file(R"({"type": "rigid", "inertia": [1, 2, 3], "spin": 1})"),
-                    {"bodies[0]: unknown key 'spin' (known: angular_velocity, inertia, mass, name, orientation, position, "
+                    {"bodies[0]: unknown key 'spin' (known: angular_velocity, any_inertia, inertia, mass, name, orientation, position, "
                      "translation, type, velocity)"});
   expect_file_error(file(R"({"type": "rigid", "inertia": [1, 2, 3], "orientation": [1, 0, 0, 0.01]})"),
                     {"bodies[0].orientation: the quaternion [w, x, y, z] has norm 1.0000499987500624; give a unit quaternion "

@@ -93,22 +93,24 @@ void builder_bodies(py::class_<PyBuilder>& c) {
           }, py::arg("names"), py::arg("mass"), py::arg("inertia"),
           "A planar rigid body (x, y, theta of its centre of mass), M = diag(m, m, I); returns its index.")
       .def("add_rigid_body", [](PyBuilder& b, double mass, const py::object& inertia, int translation,
-                                std::string name) {
+                                std::string name, bool any_inertia) {
             RigidBody body;
             body.mass = mass;
             body.inertia = inertia_of(inertia);
             body.translation = translation;
             body.name = std::move(name);
+            body.any_inertia = any_inertia;
             return b.builder.add_rigid_body(body);
           }, py::arg("mass") = 1.0, py::arg("inertia") = 1.0,
-          py::arg("translation") = 0, py::arg("name") = "",
+          py::arg("translation") = 0, py::arg("name") = "", py::arg("any_inertia") = false,
           R"(A 3-D rigid body (core/include/nonholo/rigid_body.hpp); returns its index. Its configuration
 is a unit quaternion (w, x, y, z) and the position of its centre in R^d, d = translation: 0 (a
 fixed point), 2 (the centre moves in a horizontal plane) or 3 (free); its velocities are the
 body-frame angular velocity Omega, then the centre's velocity. inertia: the central inertia in
 the body frame, a 3x3 SPD matrix, its 3 principal moments or one number J (J Id). Coordinates
 are named qw<name>, qx<name>, ..., x<name>; velocities wx<name>, ..., vx<name> (name: the
-body's index when empty).)")
+body's index when empty). Principal moments that break the triangle inequality (one above the
+sum of the other two: no rigid body has them) are refused unless any_inertia=True.)")
       .def("reserve", [](PyBuilder& b, int bodies, int coordinates, int rows, int values) {
             b.builder.reserve(bodies, coordinates, rows, values);
           }, py::arg("bodies"), py::arg("coordinates"), py::arg("rows"), py::arg("values"),

@@ -14,6 +14,7 @@ import pytest
 import nonholo
 
 # The Suslov top (README "3-D bodies"): a non-diagonal inertia, <Omega, e3> = 0.
+# Its principal moments 0.869 + 1.830 < 3.301 break the triangle inequality: any_inertia=True.
 SUSLOV_INERTIA = np.array([[1.0, 0.0, 0.5], [0.0, 2.0, 0.5], [0.5, 0.5, 3.0]])
 SUSLOV_Q0, SUSLOV_V0 = np.array([1.0, 0.0, 0.0, 0.0]), np.array([1.0, 0.6, 0.0])
 
@@ -28,7 +29,7 @@ def qmul(a, b):
 
 def suslov_model(python_row=False):
     b = nonholo.ModelBuilder()
-    body = b.add_rigid_body(inertia=SUSLOV_INERTIA)
+    body = b.add_rigid_body(inertia=SUSLOV_INERTIA, any_inertia=True)
     if python_row:  # the same row as the element, from Python: (0, 0, 1) on the Omega columns
         b.add_one_form([0, 1, 2])
         b.one_form_values(lambda q: np.array([0.0, 0.0, 1.0]))
@@ -226,6 +227,8 @@ def test_h_omega_beyond_one_fails_with_legendre_not_solved_and_leaves_the_state(
      "rigid body 0: inertia is not positive definite (principal moments -1"),
     (lambda b: b.add_rigid_body(inertia=[[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], name="top"),
      "rigid body 0 ('top'): inertia is not symmetric"),
+    (lambda b: b.add_rigid_body(inertia=[1.0, 10.0, 100.0]),
+     "rigid body 0: principal moments 1, 10, 100 break the triangle inequality (1 + 10 < 100)"),
     (lambda b: b.add_rigid_body(inertia=[1.0, 2.0]),
      "add_rigid_body: inertia must be a 3x3 matrix, 3 principal moments or one number, got an array of shape (2,)"),
     (lambda b: b.add_rigid_body(inertia="heavy"),
@@ -461,7 +464,7 @@ def test_the_rotation_option():
 @pytest.mark.parametrize("rotation", ["moser-veselov", "moser-veselov-f", "exponential"])
 def test_start_from_two_points_lands_on_the_second_orientation(rotation):
     b = nonholo.ModelBuilder()
-    b.add_rigid_body(inertia=SUSLOV_INERTIA)
+    b.add_rigid_body(inertia=SUSLOV_INERTIA, any_inertia=True)
     model = b.build()
     h = 0.01
     q0 = nonholo.axis_angle_quaternion([0.3, -1.0, 0.2], 0.4)

@@ -193,6 +193,8 @@ PARSER_ONLY = [
      "bodies[1]: body 1 (x1, y1, theta1): mass block is too ill-conditioned"),
     ("rigid mass block ill-conditioned", scene('{"type": "rigid", "mass": 1e13, "inertia": [1, 1, 1], "translation": 2, "position": [0, 0]}'),
      "bodies[0]: rigid body 0: mass block is too ill-conditioned"),
+    ("principal moments 1, 10, 100", scene('{"type": "rigid", "inertia": [1, 10, 100]}'),
+     "bodies[0].inertia: rigid body 0: principal moments 1, 10, 100 break the triangle inequality (1 + 10 < 100)"),
     ("principal moments 1e13 apart", scene('{"type": "rigid", "inertia": [1, 1, 1e-13]}'),
      "bodies[0].inertia: rigid body 0: mass block is too ill-conditioned"),
     ("offset 1e308", scene(BODY, '"constraints": [{"type": "knife_edge", "body": 0, "offset": 1e308}]'),
@@ -290,7 +292,8 @@ MINIMAL = {
     "bodies": [
         {"mass": 2, "inertia": 1.5, "position": [0, 0], "velocity": [1, 0]},
         {"mass": 1, "inertia": 0.8, "position": [-1.3, 0]},
-        {"type": "rigid", "inertia": [[1, 0, 0.5], [0, 2, 0.5], [0.5, 0.5, 3]], "angular_velocity": [1, 0.6, 0]},
+        {"type": "rigid", "inertia": [[1, 0, 0.5], [0, 2, 0.5], [0.5, 0.5, 3]], "any_inertia": True,
+         "angular_velocity": [1, 0.6, 0]},
         {"type": "rigid", "inertia": [1, 2, 3], "orientation": {"axis": [1, 1, 0], "angle": 0.8}},
         {"type": "rigid", "mass": 1, "inertia": [0.3, 0.4, 0.5], "translation": 2, "position": [5, 0],
          "angular_velocity": [1, -0.5, 2]},

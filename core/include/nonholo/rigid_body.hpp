@@ -25,6 +25,12 @@ struct RigidBody {
   /// `y<name>`, `z<name>` (configuration) and `wx<name>`, `wy<name>`, `wz<name>`, `vx<name>`, `vy<name>`,
   /// `vz<name>` (velocity). Empty: the body's index.
   std::string name;
+  /// Accept principal moments that break the triangle inequality (one larger than the sum of
+  /// the other two). No rigid body has them: I = sum m_k (|r_k|^2 Id - r_k r_k^T) gives
+  /// I_1 + I_2 - I_3 = 2 sum m_k z_k^2 >= 0 in its principal frame, and the Moser-Veselov
+  /// J_d = tr(I)/2 - I is then indefinite. Off (the default): the builder refuses them, naming
+  /// the moments.
+  bool any_inertia = false;
 };
 
 /// The unit quaternion (w, x, y, z) of the rotation by `angle` about `axis` (normalised here;

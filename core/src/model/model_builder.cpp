@@ -293,6 +293,17 @@ int ModelBuilder::add_rigid_body(const RigidBody& rb) {
     os << who() << ": inertia is not positive definite (principal moments " << moments.transpose() << ")";
     fail(os.str());
   }
+  // A physical inertia: each principal moment at most the sum of the other two (equal for a
+  // flat plate; 1e-10 of slack for a plate given turned, whose moments come from an eigensolver).
+  if (!rb.any_inertia && moments[0] + moments[1] < moments[2] * (1.0 - 1e-10)) {
+    std::ostringstream os;
+    os << who() << ": principal moments " << moments[0] << ", " << moments[1] << ", " << moments[2]
+       << " break the triangle inequality (" << moments[0] << " + " << moments[1] << " < " << moments[2]
+       << "): no rigid body has them (I1 + I2 - I3 = 2 sum m z^2 >= 0), and the Moser-Veselov Lagrangian's "
+          "J_d = tr(I)/2 - I is then indefinite; set RigidBody::any_inertia (scene parameter any_inertia=1, "
+          "\"any_inertia\": true in a scene file) to use them on purpose";
+    fail(os.str());
+  }
   if (d > 0) detail::check_mass_scale(who, "mass m", rb.mass);
   const auto inertia_of = [&] { return who() + ": inertia"; };
   detail::check_mass_scale(inertia_of, "smallest principal moment", moments.minCoeff());

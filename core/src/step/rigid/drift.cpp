@@ -66,11 +66,14 @@ Status rigid_drift(const Model& model, Workspace& ws, ConstVecRef q, double h, R
     // Moser-Veselov folds at h |Omega| about 1 (sin of the turn per step, for an isotropic body);
     // the other two turn by about h |Omega| and stop at a quarter turn.
     const char* limit = rotation == RotationLagrangian::MoserVeselov ? "below about 1" : "below about pi/2";
+    // The advice: h |Omega| = 0.5, which every Lagrangian solves for every physical inertia
+    // (tests/test_rigid_legendre.cpp sweeps the body shapes up to 1).
     return ws.fail(Status::LegendreNotSolved,
                    "the discrete Legendre transform (%s) of rigid body %d has no solution in the step from "
                    "t = %.17g: h |Omega| = %.3g (h = %g, |Omega| = %.3g); it needs h |Omega| %s (a rotation of "
-                   "less than 90 degrees per step): reduce the step size",
-                   to_string(rotation), failed, t, std::abs(h) * omega.norm(), std::abs(h), omega.norm(), limit);
+                   "less than 90 degrees per step): reduce the step size to %.3g or less (h |Omega| = 0.5)",
+                   to_string(rotation), failed, t, std::abs(h) * omega.norm(), std::abs(h), omega.norm(), limit,
+                   0.5 / omega.norm());
   }
   ws.legendre_iterations = std::max(ws.legendre_iterations, iterations);
   minv.multiply(ws.p_arrive.data(), ws.velocity.data());

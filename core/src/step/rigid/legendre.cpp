@@ -15,18 +15,32 @@ constexpr double kQuarterTurn = 1.5707963267948966;  // pi / 2
 bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
 // One Newton update x -= J^-1 r, J^-1 from its adjugate (one division); false for a singular
-// or non-finite Jacobian. Sets `small` when the update is below 4 eps |x| (converged to
-// round-off: quadratic convergence leaves nothing for another iteration to gain) and `det`
-// to det J. Squared norms: no square roots in the iteration.
-bool newton_update(const Mat3& j, const Vec3& r, Vec3& x, bool& small, double& det) {
+// or non-finite Jacobian. Sets `dx2` to the update's squared norm and `det` to det J.
+bool newton_update(const Mat3& j, const Vec3& r, Vec3& x, double& dx2, double& det) {
   const Vec3 c0 = j.col(1).cross(j.col(2)), c1 = j.col(2).cross(j.col(0)), c2 = j.col(0).cross(j.col(1));
   det = j.col(0).dot(c0);
   if (!(std::abs(det) > 0.0) || !std::isfinite(det)) return false;
   const Vec3 dx = Vec3(c0.dot(r), c1.dot(r), c2.dot(r)) / det;  // rows of J^-1 are the c_i / det
   x -= dx;
-  small = dx.squaredNorm() <= 16.0 * kEps * kEps * x.squaredNorm();
+  dx2 = dx.squaredNorm();
   return finite(x);
 }
+
+// When Newton has converged to round-off (squared norms: no square roots in the iteration): the
+// update is below 4 eps of the unknown, or it stopped shrinking (more than half the last one)
+// while below sqrt(eps) of it. From there quadratic convergence would cut it to round-off at
+// once, so what is left is the noise of evaluating the residual, which grows with the spread of
+// I's entries: a turned 1:10:10.5 body cycled at 1e-15 of v for all 40 iterations and failed,
+// at h |Omega| = 0.001 (issue 36).
+struct RoundOff {
+  double last = std::numeric_limits<double>::infinity();
+  bool reached(double dx2, const Vec3& x) {
+    const double x2 = x.squaredNorm();
+    const bool done = dx2 <= 16.0 * kEps * kEps * x2 || (dx2 > 0.25 * last && dx2 <= kEps * x2);
+    last = dx2;
+    return done;
+  }
+};
 
 // --- Moser-Veselov: 2 (I v + v x I v) = h p (1 + |v|^2) --------------------------------------
 bool solve_moser_veselov(const RigidBlock& b, const Vec3& hp, Vec3& v, int& iterations) {
@@ -39,6 +53,7 @@ bool solve_moser_veselov(const RigidBlock& b, const Vec3& hp, Vec3& v, int& iter
   }
   v = 0.5 * (b.inverse_inertia * hp);
   double det = 0.0;
+  RoundOff converged;
   for (;;) {
     const Vec3 iv = b.inertia * v;
     const Vec3 lhs = 2.0 * (iv + v.cross(iv)), rhs = hp * (1.0 + v.squaredNorm());
@@ -50,10 +65,10 @@ bool solve_moser_veselov(const RigidBlock& b, const Vec3& hp, Vec3& v, int& iter
     Mat3 jacobian;  // 2 (I + hat(v) I - hat(I v)) - 2 h p v^T
     for (int c = 0; c < 3; ++c) jacobian.col(c) = 2.0 * (b.inertia.col(c) + v.cross(b.inertia.col(c)) - hp * v[c]);
     jacobian -= 2.0 * hat(iv);
-    bool small = false;
-    if (iterations == kMaxLegendreIterations || !newton_update(jacobian, r, v, small, det)) return false;
+    double dx2 = 0.0;
+    if (iterations == kMaxLegendreIterations || !newton_update(jacobian, r, v, dx2, det)) return false;
     ++iterations;
-    if (small) break;
+    if (converged.reached(dx2, v)) break;
   }
   // On the branch through v = 0 the map's Jacobian keeps the sign it has there (det 8 det I > 0);
   // beyond the fold (h |Omega| past about 1) Newton can only find the other branch. (det is of
@@ -86,6 +101,7 @@ bool solve_moser_veselov_f(const RigidBlock& b, const Vec3& hp, Vec3& v, int& it
     return true;
   }
   v = 0.5 * (b.inverse_inertia * hp);
+  RoundOff converged;
   for (;;) {
     const Vec3 iv = b.inertia * v;
     const double n = v.dot(iv), d = 1.0 + v.squaredNorm();
@@ -99,11 +115,10 @@ bool solve_moser_veselov_f(const RigidBlock& b, const Vec3& hp, Vec3& v, int& it
     const Vec3 grad_t = (4.0 / (c * d)) * (iv - (n / d) * v);
     const Mat3 jacobian = phi * 2.0 * (b.inertia + hat(v) * b.inertia - hat(iv)) + psi * m * grad_t.transpose() -
                           2.0 * hp * v.transpose();
-    bool small = false;
-    double det = 0.0;
-    if (iterations == kMaxLegendreIterations || !newton_update(jacobian, r, v, small, det)) return false;
+    double dx2 = 0.0, det = 0.0;
+    if (iterations == kMaxLegendreIterations || !newton_update(jacobian, r, v, dx2, det)) return false;
     ++iterations;
-    if (small) break;
+    if (converged.reached(dx2, v)) break;
   }
   return v.squaredNorm() <= 1.0;  // at most a quarter turn per step (2 atan |v|)
 }
@@ -134,6 +149,7 @@ bool solve_exponential(const RigidBlock& b, const Vec3& hp, Vec3& xi, int& itera
     return xi.norm() <= kQuarterTurn;
   }
   xi = b.inverse_inertia * hp;
+  RoundOff converged;
   for (;;) {
     double a = 0.0, bb = 0.0, da = 0.0, db = 0.0;
     dexp_factors(xi.norm(), a, bb, da, db);
@@ -142,11 +158,10 @@ bool solve_exponential(const RigidBlock& b, const Vec3& hp, Vec3& xi, int& itera
     const Mat3 d_dexp = a * hat(hp) - da * xy * xi.transpose() +
                         bb * (xi.dot(hp) * Mat3::Identity() + xi * hp.transpose() - 2.0 * hp * xi.transpose()) +
                         db * xxy * xi.transpose();
-    bool small = false;
-    double det = 0.0;
-    if (iterations == kMaxLegendreIterations || !newton_update(b.inertia - d_dexp, r, xi, small, det)) return false;
+    double dx2 = 0.0, det = 0.0;
+    if (iterations == kMaxLegendreIterations || !newton_update(b.inertia - d_dexp, r, xi, dx2, det)) return false;
     ++iterations;
-    if (small) break;
+    if (converged.reached(dx2, xi)) break;
   }
   return xi.norm() <= kQuarterTurn;
 }

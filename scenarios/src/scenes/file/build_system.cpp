@@ -41,6 +41,7 @@ void add_bodies(const System& s, ModelBuilder& b) {
       // only with the mass (their ratio)?
       RigidBody alone;
       alone.inertia = body.shape.inertia;
+      alone.any_inertia = body.shape.any_inertia;
       bool inertia = false;
       try {
         ModelBuilder().add_rigid_body(alone);

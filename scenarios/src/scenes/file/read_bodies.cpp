@@ -15,8 +15,8 @@ namespace {
 // says which kind it belongs to.
 const std::set<std::string> kPlanarKeys{"type", "name", "mass", "inertia", "position", "heading", "velocity",
                                         "turn_rate"};
-const std::set<std::string> kRigidKeys{"type",        "name",     "mass",             "inertia", "translation",
-                                       "orientation", "position", "angular_velocity", "velocity"};
+const std::set<std::string> kRigidKeys{"type",        "name",     "mass",             "inertia",  "any_inertia",
+                                       "translation", "orientation", "position", "angular_velocity", "velocity"};
 
 void body_keys(const Reader& r, const json& b, const std::string& where, bool rigid) {
   const auto& other = rigid ? kPlanarKeys : kRigidKeys;
@@ -113,6 +113,11 @@ Body read_rigid_body(const Reader& r, const json& b, const std::string& where) {
   body.shape.translation = d;
   if (d > 0 || b.contains("mass")) body.shape.mass = r.positive(b, where, "mass");
   body.shape.inertia = read_inertia(r, b, where);
+  if (b.contains("any_inertia")) {  // RigidBody::any_inertia: moments that no rigid body has, on purpose
+    const json& v = b.at("any_inertia");
+    if (!v.is_boolean()) r.fail(where + ".any_inertia", std::string("expected true or false, got ") + v.type_name());
+    body.shape.any_inertia = v.get<bool>();
+  }
   body.orientation = read_orientation(r, b, where);
   body.angular_velocity = r.vector3(b, where, "angular_velocity", false);
   for (const char* key : {"position", "velocity"})

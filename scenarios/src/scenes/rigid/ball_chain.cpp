@@ -26,6 +26,7 @@ SceneInfo ball_chain_scene() {
       {"I1", 0.4, "principal moment of inertia about body x (I1 = I2 = I3 = 0.4: homogeneous balls)"},
       {"I2", 0.4, "principal moment of inertia about body y (set I1=0.3 I3=0.5 for Chaplygin balls)"},
       {"I3", 0.4, "principal moment of inertia about body z"},
+      any_inertia_spec(),
       {"symmetries", 1, "1: declare the N + 2 momentum maps (each spin, the rolling along x and y), which the "
                         "restarts then keep exactly (a restart costs O(N^2) with them: 12 ms at N = 1000); 0: none"},
   };
@@ -37,6 +38,7 @@ SceneInfo ball_chain_scene() {
     RigidBody body;
     body.mass = p.positive("m");
     body.inertia = Eigen::Vector3d(p["I1"], p["I2"], p["I3"]).asDiagonal();
+    body.any_inertia = any_inertia_of(p);
     body.translation = 2;
     ModelBuilder b;
     std::vector<BallSlots> slots;

@@ -31,6 +31,7 @@ SceneInfo chaplygin_ball_scene() {
     RigidBody body;
     body.mass = p.positive("m");
     body.inertia = inertia_of(p);
+    body.any_inertia = any_inertia_of(p);
     body.translation = 2;
     b.add_rigid_body(body);
     b.add_rolling_ball({0, r}, "rolling ball");

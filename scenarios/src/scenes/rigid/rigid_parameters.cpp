@@ -6,14 +6,23 @@
 
 namespace nonholo::scenarios {
 
-std::vector<ParameterSpec> inertia_specs(double i11, double i22, double i33, double i12, double i13, double i23) {
+std::vector<ParameterSpec> inertia_specs(double i11, double i22, double i33, double i12, double i13, double i23,
+                                         double any_inertia, const char* why) {
   return {{"I11", i11, "inertia, body frame (entry 1,1)"},
           {"I22", i22, "inertia, body frame (entry 2,2)"},
           {"I33", i33, "inertia, body frame (entry 3,3)"},
           {"I12", i12, "inertia, body frame (entry 1,2 = 2,1)"},
           {"I13", i13, "inertia, body frame (entry 1,3 = 3,1)"},
-          {"I23", i23, "inertia, body frame (entry 2,3 = 3,2)"}};
+          {"I23", i23, "inertia, body frame (entry 2,3 = 3,2)"},
+          any_inertia_spec(any_inertia, why)};
 }
+
+ParameterSpec any_inertia_spec(double value, const char* why) {
+  return {"any_inertia", value,
+          std::string("1: accept principal moments that break the triangle inequality (no rigid body has them)") + why};
+}
+
+bool any_inertia_of(const Parameters& p) { return p.whole("any_inertia", 0, 1) == 1; }
 
 Eigen::Matrix3d inertia_of(const Parameters& p) {
   Eigen::Matrix3d i;

@@ -13,8 +13,12 @@ namespace nonholo::scenarios {
 
 // I11, I22, I33, I12, I13, I23 (the inertia in the body frame; its SPD check is the builder's).
 std::vector<ParameterSpec> inertia_specs(double i11, double i22, double i33, double i12 = 0.0, double i13 = 0.0,
-                                         double i23 = 0.0);
+                                         double i23 = 0.0, double any_inertia = 0.0, const char* why = "");
 Eigen::Matrix3d inertia_of(const Parameters& p);
+// any_inertia (0 or 1): RigidBody::any_inertia, principal moments that break the triangle
+// inequality accepted on purpose. inertia_specs includes it with the default 0.
+ParameterSpec any_inertia_spec(double value = 0.0, const char* why = "");
+bool any_inertia_of(const Parameters& p);
 
 // rx, ry, rz, angle: the initial orientation, the rotation by `angle` about (rx, ry, rz).
 std::vector<ParameterSpec> orientation_specs(double rx, double ry, double rz, double angle);

@@ -22,6 +22,7 @@ SceneInfo veselova_scene() {
     ModelBuilder b;
     RigidBody body;
     body.inertia = inertia_of(p);
+    body.any_inertia = any_inertia_of(p);
     b.add_rigid_body(body);
     b.add_space_axis_constraint({0, Eigen::Vector3d::UnitZ()}, "no spin about the vertical");
     return SceneSetup{b.build(), 0.0, orientation_of(p), angular_velocity_of(p)};
