@@ -1,9 +1,12 @@
 // 3-D rigid bodies (docs/guide/rigid-bodies.md): one step of each 3-D scene with the default options,
 // and the drift of one body in the same run: a planar body's (q + h M^-1 p) against a rigid
 // body's, whose discrete Legendre transform is a 3x3 Newton iteration (Moser-Veselov, MV-F,
-// exponential) or a closed form (an isotropic body).
+// exponential) or a closed form (an isotropic body). And chains of N balls (N = 10^3 ... 10^5,
+// the scene's defaults with its N + 2 momentum maps) against the planar chain of the same N in
+// both hitch modes, and a restart of the ball chain against its step.
 #include <nonholo/model_builder.hpp>
 #include <nonholo/rattle.hpp>
+#include <nonholo/restart.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
@@ -76,8 +79,56 @@ void Drift_RigidBody_MoserVeselovF(benchmark::State& s) { run_drift(s, true, fal
 void Drift_RigidBody_Exponential(benchmark::State& s) { run_drift(s, true, false, RotationLagrangian::Exponential); }
 void Drift_IsotropicBody_MoserVeselov(benchmark::State& s) { run_drift(s, true, true, RotationLagrangian::MoserVeselov); }
 
+// A chain scene of N = range(0) bodies with its defaults, started.
+struct ChainRun {
+  scenarios::SceneSetup setup;
+  Workspace ws;
+  State s;
+  RattleOptions options;
+  ChainRun(benchmark::State& bench, const std::string& scene)
+      : setup(build(bench, scene)), ws(setup.model), s(start_from_velocity(setup.model, ws, 0.0, setup.q0, setup.v0)) {
+    options.h = scenarios::find_scene(scene).default_dt;
+  }
+  static scenarios::SceneSetup build(benchmark::State& bench, const std::string& scene) {
+    const auto& info = scenarios::find_scene(scene);
+    auto p = info.defaults();
+    p.assign("bodies=" + std::to_string(bench.range(0)));
+    return info.build(p);
+  }
+};
+
+// One step of the chain, holonomic (range(1) = 0) or one-form hitches (1): the ball chain's rods,
+// the planar chain's hitches. Items: bodies (so items/s is body-steps).
+void run_chain(benchmark::State& bench, const std::string& scene) {
+  ChainRun run(bench, scene);
+  run.options.hitch = bench.range(1) ? HitchMode::OneForm : HitchMode::Holonomic;
+  for (auto _ : bench) {
+    if (step(run.setup.model, run.ws, run.s, run.options) != Status::Ok) bench.SkipWithError(run.ws.message());
+    benchmark::DoNotOptimize(run.s.q.data());
+  }
+  bench.SetItemsProcessed(bench.iterations() * bench.range(0));
+}
+void Chain_Balls(benchmark::State& s) { run_chain(s, "ball_chain"); }
+void Chain_Sleighs(benchmark::State& s) { run_chain(s, "sleigh_chain"); }
+
+// A restart of the ball chain of N = range(0) balls (its N + 2 maps kept) at a state 10 steps in:
+// compare with Chain_Balls/N/0 (one step); the goal is under 3 steps at N = 10^5.
+void Chain_Balls_Restart(benchmark::State& bench) {
+  ChainRun run(bench, "ball_chain");
+  for (int k = 0; k < 10; ++k)
+    if (step(run.setup.model, run.ws, run.s, run.options) != Status::Ok) bench.SkipWithError(run.ws.message());
+  for (auto _ : bench) {
+    if (restart(run.setup.model, run.ws, run.s, run.options) != Status::Ok) bench.SkipWithError(run.ws.message());
+    benchmark::DoNotOptimize(run.s.lambda.data());
+  }
+  bench.SetItemsProcessed(bench.iterations() * bench.range(0));
+}
+
 }  // namespace
 
+BENCHMARK(Chain_Balls)->ArgsProduct({{1000, 10000, 100000}, {0, 1}})->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
+BENCHMARK(Chain_Sleighs)->ArgsProduct({{1000, 10000, 100000}, {0, 1}})->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
+BENCHMARK(Chain_Balls_Restart)->Arg(1000)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond)->ComputeStatistics("min", minimum);
 BENCHMARK(Step_Suslov)->ComputeStatistics("min", minimum);
 BENCHMARK(Step_Veselova)->ComputeStatistics("min", minimum);
 BENCHMARK(Step_ChaplyginBall)->ComputeStatistics("min", minimum);

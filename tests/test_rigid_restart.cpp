@@ -4,11 +4,13 @@
 // balls it rescales the part of p~ the maps do not see. Anisotropic and non-diagonal inertias,
 // restarts every 100 steps and the default ones, 10^5 steps each.
 #include <nonholo/diagnostics.hpp>
+#include <nonholo/model_builder.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/restart.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
+#include "scenes/rigid/ball_symmetries.hpp"  // the scene's generators (nonholo_private_headers)
 #include "support/bitwise_equal.hpp"
 #include "support/rigid_watch.hpp"
 #include "support/scenes.hpp"
@@ -65,6 +67,82 @@ TEST(RigidRestart, ChainOfChaplyginBallsKeepsItsPostMomentumEnergyAndMaps) {
     EXPECT_LE(w.energy_post, 1e-12) << restart;
     EXPECT_LE(w.maps_rel, 1e-12) << restart;
   }
+}
+
+// The ball chain's model built by hand, its spins declared local to their balls (as the scene
+// does) or over all of p (`order`: 0 spins local, 1 spins over all of p, 2 the rollings first and
+// the spins local after them).
+Model ball_chain_model(int n, int order) {
+  using scenarios::BallSlots;
+  RigidBody body;
+  body.inertia = Eigen::Vector3d(0.3, 0.4, 0.5).asDiagonal();
+  body.translation = 2;
+  ModelBuilder b;
+  std::vector<BallSlots> slots;
+  for (int i = 0; i < n; ++i) {
+    b.add_rigid_body(body);
+    slots.push_back({6 * i, 5 * i});
+  }
+  for (int i = 0; i < n; ++i) {
+    b.add_rolling_ball({i, 1.0});
+    if (i + 1 < n) b.add_rod({i, i + 1, 3.0});
+  }
+  auto rollings = [&] {
+    b.symmetry("roll_x", scenarios::rolling(slots, 1.0, 0));
+    b.symmetry("roll_y", scenarios::rolling(slots, 1.0, 1));
+  };
+  if (order == 2) rollings();
+  for (int i = 0; i < n; ++i) {
+    auto local = scenarios::vertical_spin(slots[i]);
+    if (order == 1)
+      b.symmetry("spin" + std::to_string(i), [local](ConstVecRef q, VecRef xi) {
+        xi.setZero();
+        local(q, xi);
+      });
+    else
+      b.symmetry("spin" + std::to_string(i), local, scenarios::vertical_spin_value(slots[i]), i);
+  }
+  if (order != 2) rollings();
+  return std::move(b).build();
+}
+
+// Local spins are stored in their balls' entries only (15 N doubles for N spins and two rollings,
+// against (N + 2) 5 N), and the restarts they give are those of the same spins declared over
+// all of p, to the bit; declared after the rollings (which then widen every spin's slot) they
+// keep the maps as well.
+TEST(RigidRestart, LocalSymmetriesAreStoredByTheirBodyAndRestartAsWholeOnesDo) {
+  const int n = 10;
+  const auto scene_setup = scene("ball_chain", {"bodies=10", "I1=0.3", "I3=0.5", "symmetries=0"});
+  State end[3];
+  long pool[3];
+  double maps[3];
+  for (int order : {0, 1, 2}) {
+    const Model model = ball_chain_model(n, order);
+    Workspace ws(model);
+    pool[order] = ws.map_pool.size();
+    State s = start_from_velocity(model, ws, 0.0, scene_setup.q0, scene_setup.v0);
+    RattleOptions o = options(0.01, "auto", HitchMode::OneForm);
+    o.restart.tolerance = 1e-300;  // a restart at every step
+    o.restart.monitor_every = 1;
+    Vector j0(model.momentum_maps().size()), j(j0.size());
+    evaluate_momentum_maps(model, s, j0);
+    maps[order] = 0.0;
+    for (int k = 0; k < 300; ++k) {
+      ASSERT_EQ(step(model, ws, s, o), Status::Ok) << ws.message();
+      evaluate_momentum_maps(model, s, j);
+      maps[order] = std::max(maps[order], (j - j0).lpNorm<Eigen::Infinity>() / j0.lpNorm<Eigen::Infinity>());
+    }
+    EXPECT_EQ(s.restarts, 300);
+    end[order] = s;
+  }
+  std::printf("10-ball chain, a restart at every step for 300 steps: pools of %ld (spins local), %ld (spins over all "
+              "of p), %ld (rollings first) doubles; maps kept to %.3g, %.3g, %.3g of their size\n",
+              pool[0], pool[1], pool[2], maps[0], maps[1], maps[2]);
+  EXPECT_EQ(pool[0], 15 * n);
+  EXPECT_EQ(pool[1], (n + 2) * 5 * n);
+  EXPECT_TRUE(testing::bitwise_equal(end[0].q, end[1].q) && testing::bitwise_equal(end[0].p, end[1].p) &&
+              testing::bitwise_equal(end[0].lambda, end[1].lambda));
+  for (double m : maps) EXPECT_LE(m, 1e-12);
 }
 
 // |mu^T x|^2_{M^-1} = x^T C x, and x^T C y, at the workspace's mu.

@@ -503,6 +503,30 @@ TEST(RigidStep, BuilderRefusesBadRigidBodiesAndElements) {
   Workspace w_gap(m_gap);
   expect_error([&] { start_from_velocity(m_gap, w_gap, 0.0, Vector(Eigen::Vector4d(1, 0, 0, 0)), Vector::Zero(3)); },
                "symmetry 'lazy': its generator left entry 1 (wy0) unset or NaN at q0");
+  // A local one (to its body): the body must exist; its entries are checked, and the rows that
+  // reach them (body 1's axis row here, where its spin about x breaks it).
+  ModelBuilder local;
+  local.add_rigid_body(rigid(1, id, 0));
+  expect_error([&] { local.symmetry("far", [](ConstVecRef, VecRef) {}, {}, 1); },
+               "symmetry 'far': body 1 does not exist (the model has 1 bodies so far");
+  local.add_rigid_body(rigid(1, id, 0));
+  local.add_body_axis_constraint({1, Eigen::Vector3d::UnitX()});
+  local.symmetry("spin of 1", [](ConstVecRef, VecRef xi) { xi.segment<3>(3) << 1.0, 0.0, 0.0; }, {}, 1);
+  const Model m_local = local.build();
+  Workspace w_local(m_local);
+  Vector q2(8);
+  q2 << 1, 0, 0, 0, 1, 0, 0, 0;
+  expect_error([&] { start_from_velocity(m_local, w_local, 0.0, q2, Vector::Zero(6)); },
+               "symmetry 'spin of 1': its generator xi(q0) does not lie in D(q0): one-form row 0 gives mu xi = 1");
+  ModelBuilder local_gap;
+  local_gap.add_rigid_body(rigid(1, id, 0));
+  local_gap.add_rigid_body(rigid(1, id, 0));
+  local_gap.symmetry("lazy local", [](ConstVecRef, VecRef xi) { xi[3] = 1.0; }, {}, 1);
+  const Model m_local_gap = local_gap.build();
+  Workspace w_local_gap(m_local_gap);
+  expect_error([&] { start_from_velocity(m_local_gap, w_local_gap, 0.0, q2, Vector::Zero(6)); },
+               "symmetry 'lazy local': its generator left entry 4 (wy1) unset or NaN at q0 (a local generator writes "
+               "all of its body's entries)");
 }
 
 }  // namespace

@@ -108,6 +108,9 @@ struct NamedMomentumMap {
   std::string name;  ///< as declared (ModelBuilder::momentum_map, ModelBuilder::symmetry)
   MomentumMap map;   ///< J(q, p)
   SymmetryGenerator generator;  ///< empty unless declared as a symmetry
+  /// A symmetry local to one body (ModelBuilder::symmetry's `body`): xi is zero outside that
+  /// body's velocities, which are all its generator writes. -1: xi may be nonzero anywhere.
+  int body = -1;
 };
 
 /// A nonholonomic system, immutable once built (ModelBuilder::build). See model.hpp for the

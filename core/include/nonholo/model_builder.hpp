@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 namespace nonholo {
@@ -105,7 +106,12 @@ class ModelBuilder {
   /// checked at the start): a generator local to one body then costs O(1) to evaluate instead of
   /// n_v (a chain of N balls declares N spins). Without it J is evaluated through xi (no heap up
   /// to 256 velocities).
-  ModelBuilder& symmetry(const std::string& name, SymmetryGenerator generator, MomentumMap value = {});
+  /// `body` >= 0 declares the symmetry local to that body: xi(q) is zero outside its velocities,
+  /// and the generator writes those entries only (the others of the vector it is given are zero
+  /// and must stay so). Restarts then store and orthogonalise its direction in O(1): a chain of
+  /// N balls keeps its N spins and two rollings in O(N) memory, not N n_v.
+  ModelBuilder& symmetry(const std::string& name, SymmetryGenerator generator, MomentumMap value = {},
+                         int body = -1);
   /// M(q) and dM/dq_i over all coordinates (see Model::has_configuration_metric). The bodies'
   /// mass blocks should be M(q0): the set-up code and the diagnostics of q0 use them.
   ModelBuilder& configuration_metric(MetricValue value, MetricDerivative derivative);
@@ -139,6 +145,7 @@ class ModelBuilder {
   // empty slot; no node or string per entry.
   std::vector<std::uint64_t> name_slots_;
   std::size_t hashed_names_ = 0;
+  std::unordered_set<std::string> map_names_;  // the momentum maps' (a chain of N balls declares N + 2)
   int find_name(const std::string& name) const;  // its coordinate, or -1
   void insert_name(int coordinate, const std::string& name);  // name: the coordinate's
   int body_of_coordinate(int coordinate) const;

@@ -148,16 +148,25 @@ class alignas(128) Workspace {
   /// The period-2 mode (restart.hpp). lambda_s: the continuous multiplier lambda_s(q, p~) last
   /// computed (m); lambda_f: its part due to the applied force, -C^-1 mu M^-1 f (m, only for
   /// models with an applied force). With momentum maps, the restart also keeps their directions
-  /// (map_directions, n x maps) and the split of p~ (map_probe, map_rest, map_linear: n;
+  /// (map_pool, packed as map_slot says) and the split of p~ (map_probe, map_rest, map_linear: n;
   /// map_lambda0, map_lambda1: m; map_values: 2 maps, the maps' values J_j, then their scales).
   ///@{
   Vector lambda_s, lambda_f;
-  Eigen::MatrixXd map_directions;
+  Vector map_pool;
   Vector map_probe, map_rest, map_linear, map_lambda0, map_lambda1, map_values;
   ///@}
   /// Where each direction can be nonzero: entries [map_span[2j], map_span[2j+1]), whole blocks of
   /// M (a ball's spin touches its own body only: disjoint directions cost nothing to orthogonalise).
   std::vector<int> map_span;
+  /// Direction j's entries k in [map_slot[3j+1], map_slot[3j+2]) are map_pool[map_slot[3j] + k -
+  /// map_slot[3j+1]]: the widest its span can grow to (from the maps' supports, ModelBuilder::
+  /// symmetry's `body`), so N spins and two rollings of a ball chain take 15 N doubles, not N n.
+  std::vector<int> map_slot;
+  /// The earlier directions whose slots overlap direction j's, ascending: map_overlap[
+  /// map_overlap_ptr[j] ... map_overlap_ptr[j + 1]) (the only ones its Gram-Schmidt can meet).
+  ///@{
+  std::vector<int> map_overlap_ptr, map_overlap;
+  ///@}
   /// What the last successful step found: the parasitic amplitude at its end (NaN when it was
   /// not measured) and whether it restarted the multipliers.
   ///@{

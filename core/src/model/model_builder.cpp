@@ -881,36 +881,45 @@ ModelBuilder& ModelBuilder::external_force(ExternalForce force) {
 ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap map) {
   if (name.empty()) fail("momentum_map: the name is empty");
   if (!map) fail("momentum_map '" + name + "': the function is empty");
-  for (const auto& existing : draft_.momentum_maps_)
-    if (existing.name == name) fail("momentum_map '" + name + "' is defined twice");
+  if (!map_names_.insert(name).second) fail("momentum_map '" + name + "' is defined twice");
   draft_.momentum_maps_.push_back({name, std::move(map), {}});
   return *this;
 }
 
-ModelBuilder& ModelBuilder::symmetry(const std::string& name, SymmetryGenerator generator, MomentumMap value) {
+ModelBuilder& ModelBuilder::symmetry(const std::string& name, SymmetryGenerator generator, MomentumMap value,
+                                     int body) {
   if (!generator) fail("symmetry '" + name + "': the generator is empty");
+  if (body < -1 || body >= static_cast<int>(draft_.bodies_.size()))
+    fail("symmetry '" + name + "': body " + std::to_string(body) + " does not exist (the model has " +
+         std::to_string(draft_.bodies_.size()) + " bodies so far; -1: not local to one body)");
   if (value) {
     momentum_map(name, std::move(value));
     draft_.momentum_maps_.back().generator = std::move(generator);
+    draft_.momentum_maps_.back().body = body;
     return *this;
   }
   // J = <xi(q), p>, xi evaluated into a buffer on the stack (up to kStack velocities: no heap
   // at all), else into one of the calling thread's (allocated at its first use, and when a
   // larger model's map is evaluated on that thread). Restarts read the generator directly.
-  MomentumMap map = [generator](ConstVecRef q, ConstVecRef p) {
+  // A local generator writes its body's entries only: J is their product with p's.
+  const int first = body >= 0 ? draft_.bodies_[static_cast<std::size_t>(body)].offset : 0;
+  const int size = body >= 0 ? draft_.bodies_[static_cast<std::size_t>(body)].size : -1;
+  MomentumMap map = [generator, first, size](ConstVecRef q, ConstVecRef p) {
     constexpr int kStack = 256;
+    const Eigen::Index count = size < 0 ? p.size() : size;
     if (p.size() <= kStack) {
       Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kStack, 1> xi(p.size());
       generator(q, xi);
-      return xi.dot(p);
+      return size < 0 ? xi.dot(p) : xi.segment(first, count).dot(p.segment(first, count));
     }
     thread_local Vector xi;
     if (xi.size() < p.size()) xi.resize(p.size());
     generator(q, xi.head(p.size()));
-    return xi.head(p.size()).dot(p);
+    return size < 0 ? xi.head(p.size()).dot(p) : xi.segment(first, count).dot(p.segment(first, count));
   };
   momentum_map(name, std::move(map));
   draft_.momentum_maps_.back().generator = std::move(generator);
+  draft_.momentum_maps_.back().body = body;
   return *this;
 }
 

@@ -16,6 +16,14 @@
 
 namespace nonholo::detail {
 
+// Plans the packed storage of the momentum maps' directions (Workspace::map_slot): each map's
+// support (a local symmetry's body, widened to whole blocks of M; else all of p), grown as the
+// Gram-Schmidt of momentum_directions can grow it (by the earlier supports it overlaps, in
+// order), and for each map the earlier ones it overlaps. Returns the pool's size. O(r log r +
+// overlaps) for r maps: a chain of N balls plans its N + 2 in O(N log N).
+int plan_map_slots(const Model& model, std::vector<int>& slot, std::vector<int>& overlap_ptr,
+                   std::vector<int>& overlap);
+
 // parasitic_amplitude (restart.hpp) without taking the workspace: for a step that holds it.
 Status parasitic_amplitude(const Model& model, Workspace& ws, const State& s, double h, double& amplitude,
                            double min_pivot_ratio);

@@ -4,6 +4,8 @@
 
 #include <nonholo/sparse/big_buffer.hpp>
 
+#include "step/restart_internal.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -45,7 +47,7 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
   if (m > 0 && model.has_applied_force()) sparse::zero_buffer(lambda_f, m);
   const int maps = static_cast<int>(model.momentum_maps().size());
   if (m > 0 && maps > 0) {
-    map_directions.setZero(n, maps);
+    sparse::zero_buffer(map_pool, detail::plan_map_slots(model, map_slot, map_overlap_ptr, map_overlap));
     for (Vector* v : {&map_probe, &map_rest, &map_linear}) sparse::zero_buffer(*v, n);
     sparse::zero_buffer(map_lambda0, m);
     sparse::zero_buffer(map_lambda1, m);

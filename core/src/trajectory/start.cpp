@@ -97,6 +97,88 @@ Vector& sized_buffer(Vector& buffer, Vector& local, Eigen::Index size) {
   return local;
 }
 
+// The symmetry generators at q0 (check_callbacks_fill): each fills its entries (a local one:
+// its body's, leaving the others zero), J(q0, xi) = |xi|^2 where J is given, and xi in D(q0)
+// (mu(q0) in ws.mu_values).
+template <class Complain>
+void check_generators(const Model& model, const Workspace& ws, ConstVecRef q0, Complain&& complain) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const int n = model.num_velocities();
+  auto names = [&model](int i) { return std::string(model.velocity_name(i)); };
+  const bool rows = model.num_one_forms() > 0;
+  const auto& pattern = model.one_form_pattern();
+  // The rows through each column (only for local generators): CSC of the pattern.
+  std::vector<int> col_ptr, col_rows, marked;
+  const bool local = std::any_of(model.momentum_maps().begin(), model.momentum_maps().end(),
+                                 [](const NamedMomentumMap& m) { return m.generator && m.body >= 0; });
+  if (rows && local) {
+    col_ptr.assign(static_cast<std::size_t>(n) + 1, 0);
+    for (int k = 0; k < pattern.nnz(); ++k) ++col_ptr[static_cast<std::size_t>(pattern.col_idx[k]) + 1];
+    for (int c = 0; c < n; ++c) col_ptr[static_cast<std::size_t>(c) + 1] += col_ptr[static_cast<std::size_t>(c)];
+    col_rows.resize(static_cast<std::size_t>(pattern.nnz()));
+    std::vector<int> next(col_ptr.begin(), col_ptr.end() - 1);
+    for (int r = 0; r < pattern.rows; ++r)
+      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k)
+        col_rows[static_cast<std::size_t>(next[static_cast<std::size_t>(pattern.col_idx[k])]++)] = r;
+    marked.assign(static_cast<std::size_t>(pattern.rows), -1);
+  }
+  Vector xi = Vector::Zero(n);
+  int index = -1;
+  for (const NamedMomentumMap& map : model.momentum_maps()) {
+    ++index;
+    if (!map.generator) continue;
+    int first = 0, last = n;
+    if (map.body >= 0) {
+      first = model.body(map.body).offset;
+      last = first + model.body(map.body).size;
+    }
+    xi.segment(first, last - first).setConstant(nan);
+    map.generator(q0, xi);
+    for (int i = first; i < last; ++i)
+      if (std::isnan(xi[i]))
+        complain("symmetry '" + map.name + "': its generator left entry " + std::to_string(i) + " (" + names(i) +
+                 ") unset or NaN at q0" + (map.body >= 0 ? " (a local generator writes all of its body's entries)" : ""));
+    const double j_xi = map.map(q0, xi), xi_xi = xi.segment(first, last - first).squaredNorm();
+    if (!(std::abs(j_xi - xi_xi) <= 1e-12 * xi_xi + 1e-300)) {
+      std::ostringstream os;
+      os.precision(17);
+      os << "symmetry '" << map.name << "': its momentum map is not <xi(q), p>: at q0, J(q0, xi) = " << j_xi
+         << " but |xi|^2 = " << xi_xi;
+      complain(os.str());
+    }
+    if (rows) {
+      const double size = xi.segment(first, last - first).lpNorm<Eigen::Infinity>();
+      auto check_row = [&](int r) {
+        double sum = 0.0, row_norm = 0.0;
+        for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k) {
+          sum += ws.mu_values[k] * xi[pattern.col_idx[k]];
+          row_norm += std::abs(ws.mu_values[k]);
+        }
+        if (std::abs(sum) > 1e-10 * row_norm * size) {
+          std::ostringstream os;
+          os << "symmetry '" << map.name << "': its generator xi(q0) does not lie in D(q0): " << model.describe_row(r)
+             << " gives mu xi = " << sum << " (a horizontal symmetry's generator satisfies every constraint; declare "
+             << "other conserved quantities with momentum_map)";
+          complain(os.str());
+        }
+      };
+      if (map.body >= 0) {
+        for (int c = first; c < last; ++c)
+          for (int k = col_ptr[static_cast<std::size_t>(c)]; k < col_ptr[static_cast<std::size_t>(c) + 1]; ++k) {
+            const int r = col_rows[static_cast<std::size_t>(k)];
+            if (marked[static_cast<std::size_t>(r)] == index) continue;
+            marked[static_cast<std::size_t>(r)] = index;
+            check_row(r);
+          }
+      } else {
+        for (int r = 0; r < pattern.rows; ++r) check_row(r);
+      }
+    }
+    xi.segment(first, last - first).setZero();
+    if (map.body < 0) xi.setZero();
+  }
+}
+
 // Each callback, evaluated once at (t0, q0) into NaN-filled output, must fill every entry:
 // one that fills too few values would otherwise leave the previous call's numbers there and
 // go unseen (debug builds also NaN-fill mu before every evaluation, workspace.cpp). The
@@ -139,41 +221,10 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
                    ") unset or NaN at q0 with qdot = 0");
     }
   }
-  // Symmetry generators: every entry filled, and in D(q0) (mu(q0) is in the workspace's cache).
-  for (const NamedMomentumMap& map : model.momentum_maps()) {
-    if (!map.generator) continue;
-    Vector xi = Vector::Constant(n, nan);
-    map.generator(q0, xi);
-    for (int i = 0; i < n; ++i)
-      if (std::isnan(xi[i]))
-        complain("symmetry '" + map.name + "': its generator left entry " + std::to_string(i) + " (" + names(i) +
-                 ") unset or NaN at q0");
-    const double j_xi = map.map(q0, xi), xi_xi = xi.squaredNorm();
-    if (!(std::abs(j_xi - xi_xi) <= 1e-12 * xi_xi + 1e-300)) {
-      std::ostringstream os;
-      os.precision(17);
-      os << "symmetry '" << map.name << "': its momentum map is not <xi(q), p>: at q0, J(q0, xi) = " << j_xi
-         << " but |xi|^2 = " << xi_xi;
-      complain(os.str());
-    }
-    if (model.num_one_forms() == 0) continue;
-    const auto& pattern = model.one_form_pattern();
-    const double size = xi.lpNorm<Eigen::Infinity>();
-    for (int r = 0; r < pattern.rows; ++r) {
-      double sum = 0.0, row_norm = 0.0;
-      for (int k = pattern.row_ptr[r]; k < pattern.row_ptr[r + 1]; ++k) {
-        sum += ws.mu_values[k] * xi[pattern.col_idx[k]];
-        row_norm += std::abs(ws.mu_values[k]);
-      }
-      if (std::abs(sum) > 1e-10 * row_norm * size) {
-        std::ostringstream os;
-        os << "symmetry '" << map.name << "': its generator xi(q0) does not lie in D(q0): " << model.describe_row(r)
-           << " gives mu xi = " << sum << " (a horizontal symmetry's generator satisfies every constraint; declare "
-           << "other conserved quantities with momentum_map)";
-        complain(os.str());
-      }
-    }
-  }
+  // Symmetry generators: every entry filled (a local one's: its body's), and in D(q0) (mu(q0)
+  // is in the workspace's cache). One buffer for all; a local generator is checked on its
+  // body's entries and the rows that reach them: a chain of N balls checks its N spins in O(N).
+  if (generators) check_generators(model, ws, q0, complain);
   if (model.num_holonomic() > 0 && !element_rows) {
     Vector& g = sized_buffer(ws.gap, local, model.num_holonomic());
     g.setConstant(nan);

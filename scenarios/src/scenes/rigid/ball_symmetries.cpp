@@ -10,9 +10,9 @@ namespace nonholo::scenarios {
 
 SymmetryGenerator vertical_spin(BallSlots ball) {
   return [ball](ConstVecRef q, VecRef xi) {
-    xi.setZero();
     const Eigen::Matrix3d r = quaternion_matrix(q.segment<4>(ball.q));
     xi.segment<3>(ball.v) = r.row(2).transpose();
+    xi.segment(ball.v + 3, ball.translation).setZero();
   };
 }
 

@@ -13,10 +13,12 @@ namespace nonholo::scenarios {
 // (2 or 3 entries) at v[v + 3].
 struct BallSlots {
   int q, v;
+  int translation = 2;  ///< its centre's velocity entries
 };
 
 // Omega = gamma = R^T e3 on this ball, nothing else moves: J = p_Omega . gamma (the generator,
-// and J computed directly from the ball's own entries).
+// and J computed directly from the ball's own entries). The generator writes the ball's own
+// entries only: declare it local to the ball (ModelBuilder::symmetry's `body`).
 SymmetryGenerator vertical_spin(BallSlots ball);
 MomentumMap vertical_spin_value(BallSlots ball);
 // Every ball turning at unit rate about the horizontal space axis e_j (j = 0: x, 1: y) and

@@ -38,7 +38,7 @@ SceneInfo chaplygin_ball_scene() {
     const BallSlots slots{0, 0};
     b.symmetry("K_x", rolling({slots}, r, 0));
     b.symmetry("K_y", rolling({slots}, r, 1));
-    b.symmetry("K_z", vertical_spin(slots), vertical_spin_value(slots));
+    b.symmetry("K_z", vertical_spin(slots), vertical_spin_value(slots), 0);
     const Eigen::Vector4d orientation = orientation_of(p);
     const Eigen::Vector3d omega = angular_velocity_of(p);
     const Eigen::Vector3d xdot = r * (quaternion_matrix(orientation) * omega).cross(Eigen::Vector3d::UnitZ());
