@@ -97,10 +97,12 @@ Status momentum_directions(const Model& model, Workspace& ws, ConstVecRef q, Con
       int first = 0, last = n;
       support_of(model, maps[j], first, last);
       maps[j].generator(q, ws.map_linear);  // a local one writes its body's entries only
-      for (int i = first; i < last; ++i) scale += std::abs(col[i] * p[i]);
       double value = 0.0;
-      for (int i = first; i < last; ++i) value += col[i] * p[i];
-      ws.map_values[j] = maps[j].body < 0 ? ws.map_linear.dot(p) : value;
+      for (int i = first; i < last; ++i) {
+        scale += std::abs(col[i] * p[i]);
+        value += col[i] * p[i];
+      }
+      ws.map_values[j] = maps[j].body < 0 ? ws.map_linear.dot(p) : value;  // over all of p as before: the same bits
       lo = first;  // its nonzero entries, widened to whole blocks of M
       hi = last;
       while (lo < hi && col[lo] == 0.0) ++lo;
