@@ -4,8 +4,8 @@ Planar bodies (coordinates x<i>, y<i>, theta<i>) are drawn as oriented sleighs w
 (a short line across the body), hitch links between consecutive bodies, the paths of the bodies
 (the lead's and every k-th for long chains) over the last `trail` time units, and the time.
 3-D rigid bodies (qw<i>, qx<i>, qy<i>, qz<i> and x<i>, y<i>(, z<i>)) are drawn from above as
-circles with a marker at a body-fixed point (filled when it is on the upper half), and the
-path of their centre; a body without translation (a top) as a circle at the origin.
+circles with a marker at a body-fixed point (filled when it is on the upper half), a ball chain's
+rods as lines between the centres, and the path of their centre; a body without translation (a top) as a circle at the origin.
 
 Matplotlib (Agg) draws; Pillow writes GIF, ffmpeg MP4 (Debian: python3-pil, ffmpeg).
 """
@@ -324,6 +324,8 @@ def _draw(t: np.ndarray, q: np.ndarray, bodies: List[_Body], scene: str, paramet
     trail_lines = [ax.plot([], [], color=LEAD if j == 0 and nb > 1 else TRAIL, lw=1.0, alpha=0.8, zorder=1)[0]
                    for j in trailed] if trail != 0 else []
     links = ax.plot([], [], color=LINK, lw=1.0, zorder=2)[0] if len(planar) > 1 else None
+    # A chain of 3-D bodies (the ball chain's rods): its centres joined in order, under the bodies.
+    rods = ax.plot([], [], color=LINK, lw=1.5, zorder=2)[0] if scene == "ball_chain" and len(rigid) > 1 else None
     polys = PolyCollection([], facecolors=BODY, edgecolors="k", linewidths=0.4, zorder=3)
     ax.add_collection(polys)
     blades = LineCollection([], colors="k", linewidths=1.5, zorder=4)
@@ -390,6 +392,8 @@ def _draw(t: np.ndarray, q: np.ndarray, bodies: List[_Body], scene: str, paramet
                 tips.append([(cx, cy), tip])
                 (ups if m[2] >= 0 else downs).append(tip)
             hands.set_segments(tips)
+            if rods is not None:
+                rods.set_data(xs[i, rigid], ys[i, rigid])
             up.set_offsets(np.array(ups).reshape(-1, 2))
             down.set_offsets(np.array(downs).reshape(-1, 2))
         if dots is not None:

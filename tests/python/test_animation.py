@@ -93,6 +93,19 @@ def test_rigid_bodies_from_above(tmp_path, scene):
     assert sum(near(image, p, _animation.BALL, reach=1) for p in ring) >= 9
 
 
+def test_a_ball_chains_rods_are_drawn_between_the_centres(tmp_path):
+    h5 = run(tmp_path, "balls.h5", "ball_chain", "--t-end", "1")
+    r = nonholo.load(h5)
+    gif = tmp_path / "balls.gif"
+    anim = _animation.animate(h5, gif, frames=2, width=480, trail=0)
+    image = last_frame(gif)
+    for b in range(2):  # the middle of each rod (length 3) lies outside both balls (radius 1)
+        x = [r.q[-1, r.coordinates.index("x%d" % k)] for k in (b, b + 1)]
+        y = [r.q[-1, r.coordinates.index("y%d" % k)] for k in (b, b + 1)]
+        middle = anim.to_pixel(1, 0.5 * (x[0] + x[1]), 0.5 * (y[0] + y[1]))
+        assert near(image, middle, _animation.LINK, reach=2), "rod %d-%d not drawn at %s" % (b, b + 1, middle)
+
+
 def test_bodies_are_drawn_where_the_file_says(tmp_path):
     h5 = run(tmp_path, "chain.h5", "sleigh_chain", "--set", "bodies=5", "--t-end", "4")
     r = nonholo.load(h5)
