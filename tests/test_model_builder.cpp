@@ -225,5 +225,40 @@ TEST(ModelBuilder, NamesReadBackPackedAndAsLists) {
   EXPECT_EQ(m.velocity_names(), expected);
 }
 
+// Velocity names and row labels are kept packed (NameStore) too: read back one by one and as
+// a list, on a model whose planar bodies come before and after rigid ones (velocity names then
+// differ from coordinate names), with labelled and unlabelled rows mixed.
+TEST(ModelBuilder, VelocityNamesAndRowLabelsReadBackPacked) {
+  ModelBuilder b;
+  b.add_planar_body({"x", "y", "theta"}, 1.0, 1.0);
+  b.add_planar_body({"x1", "y1", "t1"}, 1.0, 1.0);
+  RigidBody ball;
+  ball.translation = 2;
+  ball.inertia = Eigen::Matrix3d::Identity() * 0.4;
+  b.add_rigid_body(ball);  // body 2: wx2 wy2 wz2 vx2 vy2
+  ball.name = "B";
+  b.add_rigid_body(ball);  // body 3: wxB ... vyB
+  b.add_planar_body({"x4", "y4", "t4"}, 1.0, 1.0);
+  b.add_one_form({0, 1, 2});
+  b.add_one_form({3, 4, 5}, "a label longer than a short string's buffer");
+  b.add_one_form({6, 7, 8});
+  b.add_one_form({9, 10}, "short");
+  b.add_one_form({14, 15, 16});
+  b.one_form_values(kUnit);
+  const Model m = b.build();
+  const std::vector<std::string> expected{"x",   "y",   "theta", "x1",  "y1",  "t1",  "wx2", "wy2", "wz2",
+                                          "vx2", "vy2", "wxB",   "wyB", "wzB", "vxB", "vyB", "x4",  "y4",
+                                          "t4"};
+  ASSERT_EQ(m.num_velocities(), static_cast<int>(expected.size()));
+  for (int i = 0; i < m.num_velocities(); ++i) EXPECT_EQ(m.velocity_name(i), expected[static_cast<std::size_t>(i)]);
+  EXPECT_EQ(m.velocity_names(), expected);
+  EXPECT_EQ(m.coordinate_name(6), "qw2");
+  const std::vector<std::string> labels{"", "a label longer than a short string's buffer", "", "short", ""};
+  for (int r = 0; r < m.num_one_forms(); ++r) EXPECT_EQ(m.row_label(r), labels[static_cast<std::size_t>(r)]);
+  EXPECT_EQ(m.row_label(-1), "");
+  EXPECT_EQ(m.row_label(m.num_one_forms()), "");
+  EXPECT_EQ(m.describe_row(3), "one-form row 3 (short)");
+}
+
 }  // namespace
 }  // namespace nonholo

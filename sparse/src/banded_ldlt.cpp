@@ -71,9 +71,28 @@ FactorStatus BandedLdlt::factorize_in_place(double min_pivot_ratio) {
   if (!has_pattern_) return no_pattern();
   for (int at : outside_) band_[static_cast<std::size_t>(at)] = 0.0;  // L's fill from the last time
   begin_rows();
-  for (int r = 0; r < size(); ++r)
-    if (!eliminate_row(r, min_pivot_ratio)) break;
+  eliminate_all(min_pivot_ratio);
   return finish_rows(min_pivot_ratio);
+}
+
+// Every row in order, the bandwidth fixed at compile time where it is small (the loops
+// unroll: a 3-D ball chain's kd = 3 factorisation took 14 % of its general step with run-time
+// bounds); stops at the first row whose pivot test fails.
+template <int KD>
+void BandedLdlt::eliminate_fixed(double min_pivot_ratio) {
+  for (int r = 0; r < size(); ++r)
+    if (!eliminate_row<KD>(r, min_pivot_ratio)) return;
+}
+
+void BandedLdlt::eliminate_all(double min_pivot_ratio) {
+  switch (kd_) {
+    case 0: return eliminate_fixed<0>(min_pivot_ratio);
+    case 1: return eliminate_fixed<1>(min_pivot_ratio);
+    case 2: return eliminate_fixed<2>(min_pivot_ratio);
+    case 3: return eliminate_fixed<3>(min_pivot_ratio);
+    case 4: return eliminate_fixed<4>(min_pivot_ratio);
+    default: return eliminate_fixed<-1>(min_pivot_ratio);
+  }
 }
 
 void BandedLdlt::begin_rows() {
@@ -117,8 +136,7 @@ FactorStatus BandedLdlt::factorize(const double* c_values, double min_pivot_rati
   std::fill(band_.begin(), band_.end(), 0.0);
   for (std::size_t s = 0; s < position_.size(); ++s) band_[position_[s]] = c_values[s];
   begin_rows();
-  for (int r = 0; r < size(); ++r)
-    if (!eliminate_row(r, min_pivot_ratio)) break;
+  eliminate_all(min_pivot_ratio);
   return finish_rows(min_pivot_ratio);
 }
 

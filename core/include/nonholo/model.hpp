@@ -42,6 +42,8 @@ class NameStore {
   std::string operator[](std::size_t i) const;
   /// Appends one body's k names; std::length_error past 4 GiB of characters in all.
   void push_body(const std::string* names, int k);
+  /// Appends one name kept as it is (never read as "<prefix><n>"): a row's label.
+  void push_text(std::string_view text);
   /// n of a name "<prefix><n>" written as std::to_string writes n (at most 8 digits, no leading
   /// zero), with the prefix's length; -1 for any other name. (ModelBuilder looks such names up
   /// by number too.)
@@ -131,9 +133,7 @@ class Model {
   const std::vector<std::string>& coordinate_names() const;
   /// ... and of the n_v velocity entries (the same names for planar and general bodies; wx0,
   /// wy0, wz0, vx0, vy0 for a rigid body): messages about a column of mu name these.
-  const std::vector<std::string>& velocity_names() const {
-    return velocity_names_.empty() ? coordinate_names() : velocity_names_;
-  }
+  const std::vector<std::string>& velocity_names() const;
   /// The model keeps its coordinate names compactly (detail::NameStore: a generated chain's take
   /// no memory); the lists above are made as strings on their first call (once, thread-safe;
   /// shared by the model's copies), which a run that writes no names never makes. These read one
@@ -141,14 +141,14 @@ class Model {
   ///@{
   std::string coordinate_name(int i) const { return names_[static_cast<std::size_t>(i)]; }
   std::string velocity_name(int i) const {
-    return velocity_names_.empty() ? names_[static_cast<std::size_t>(i)] : velocity_names_[static_cast<std::size_t>(i)];
+    return velocity_names_.size() == 0 ? names_[static_cast<std::size_t>(i)] : velocity_names_[static_cast<std::size_t>(i)];
   }
   ///@}
 
   /// 3-D rigid bodies (nonholo/rigid_body.hpp), in body order.
   ///@{
-  bool has_rigid_bodies() const { return !rigid_.empty(); }
-  const std::vector<RigidBlock>& rigid_bodies() const { return rigid_; }
+  bool has_rigid_bodies() const { return !rigid_bodies().empty(); }
+  const std::vector<RigidBlock>& rigid_bodies() const { return rigid_list_ ? *rigid_list_ : rigid_; }
   ///@}
   /// out = q moved along the velocity-space displacement delta (n_v entries): flat
   /// coordinates add delta, a rigid body's orientation becomes R exp(hat(delta_Omega)) (a
@@ -157,7 +157,7 @@ class Model {
   void retract(ConstVecRef q, ConstVecRef delta, VecRef out) const;
   /// The label given to one-form row r (ModelBuilder::add_one_form), "" when none: messages
   /// about a row of mu or of C name it, so that a scene file's error points at its element.
-  const std::string& row_label(int r) const;
+  std::string row_label(int r) const;
   /// "one-form row r" followed by " (label)" when the row has one; for set-up messages.
   std::string describe_row(int r) const;
 
@@ -166,7 +166,8 @@ class Model {
   /// The rows of mu and their columns (fixed; the values come from one_form_values()).
   const sparse::RowPattern& one_form_pattern() const { return pattern_; }
   /// C = mu M^-1 mu^T: its fixed pattern and the index map that fills it. A chain of
-  /// elements (is_chain) factorises C from its elements' rows and never needs them, so for it
+  /// elements (is_chain), and a chain of rolling balls on rods, factorises C from its elements'
+  /// rows and never needs them, so for it
   /// they are built at the first call (thread-safe; about 0.5 s and 250 MB for a million
   /// bodies), e.g. by a Workspace that forces CHOLMOD.
   const sparse::GramAssembler& gram() const;
@@ -235,8 +236,11 @@ class Model {
   detail::NameStore names_;
   struct LazyNames;  // model.cpp: a once_flag and names_ as strings; shared by copies of the model
   std::shared_ptr<LazyNames> name_list_;
-  std::vector<std::string> velocity_names_;  // empty unless some body is rigid
-  std::vector<RigidBlock> rigid_;
+  detail::NameStore velocity_names_;  // empty unless some body is rigid (then n_v names)
+  std::shared_ptr<LazyNames> velocity_list_;  // velocity_names_ as strings, made on first call
+  std::vector<RigidBlock> rigid_;  // while the model is built; then in rigid_list_
+  // The rigid bodies of a built model, shared with its copies and its elements (ElementSet).
+  std::shared_ptr<const std::vector<RigidBlock>> rigid_list_;
   sparse::BlockDiagonal mass_, inverse_mass_;
   sparse::RowPattern pattern_;
   struct LazyGram;  // model.cpp: a once_flag and the assembler; shared by copies of the model
@@ -250,7 +254,9 @@ class Model {
   ExternalForce force_;
   std::vector<NamedMomentumMap> momentum_maps_;
   std::vector<int> holonomic_rows_;
-  std::vector<std::string> row_labels_;  // empty when no row has a label (large chains)
+  // The rows' labels, "" for a row without one, kept as text (no string per row: a 10^5-ball
+  // chain's 3 10^5 labels took 27 MB as strings); empty when no row has a label.
+  detail::NameStore row_labels_;
   MetricValue metric_;
   MetricDerivative metric_derivative_;
   ConstraintGap gap_;

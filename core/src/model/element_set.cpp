@@ -10,6 +10,10 @@ namespace nonholo::detail {
 void ElementSet::values(ConstVecRef q, VecRef mu) const {
   const double* x = q.data();
   double* out = mu.data();
+  if (ball_chain) {  // ball by ball, without the row table (rigid_row_values' arithmetic: the same bits)
+    ball_chain_values(x, out);
+    return;
+  }
   for (std::size_t r = 0, n = num_rows(); r < n; ++r) {
     double* v = out + value_start(r);
     const ElementRow row = this->row(r);
@@ -67,6 +71,16 @@ void ElementSet::bias(ConstVecRef q, ConstVecRef qdot, VecRef bias) const {
 
 void ElementSet::gap(ConstVecRef q, VecRef g) const {
   Eigen::Index j = 0;
+  if (ball_chain) {  // the rods, rod b between the centres at 6b + 4 and 6b + 10 (rigid_row_gap's arithmetic)
+    const double* x = q.data();
+    for (std::size_t b = 0; b < rods.size(); ++b, x += 6) {
+      const double length = rods[b].length;
+      double s = 0.0;
+      for (int i = 0; i < 2; ++i) s += (x[4 + i] - x[10 + i]) * (x[4 + i] - x[10 + i]);
+      g[j++] = (s - length * length) / (2.0 * length);
+    }
+    return;
+  }
   for (std::size_t r = 0, n = num_rows(); r < n; ++r) {
     const ElementRow row = this->row(r);
     if (!row.holonomic()) continue;

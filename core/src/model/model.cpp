@@ -26,7 +26,7 @@ const sparse::GramAssembler& Model::gram() const {
 
 void Model::new_gram() {
   gram_ = std::make_shared<LazyGram>();  // its own: a builder's copies share no draft's
-  if (!is_chain()) gram();
+  if (!is_chain() && !(elements_ && elements_->ball_chain)) gram();  // a layout's band needs no pattern
 }
 
 struct Model::LazyNames {
@@ -45,7 +45,20 @@ const std::vector<std::string>& Model::coordinate_names() const {
   return name_list_->names;
 }
 
-void Model::new_name_list() { name_list_ = std::make_shared<LazyNames>(); }
+const std::vector<std::string>& Model::velocity_names() const {
+  if (velocity_names_.size() == 0 || !velocity_list_) return coordinate_names();
+  std::call_once(velocity_list_->once, [this] {
+    auto& list = velocity_list_->names;
+    list.reserve(velocity_names_.size());
+    for (std::size_t i = 0; i < velocity_names_.size(); ++i) list.emplace_back(velocity_names_[i]);
+  });
+  return velocity_list_->names;
+}
+
+void Model::new_name_list() {
+  name_list_ = std::make_shared<LazyNames>();
+  velocity_list_ = std::make_shared<LazyNames>();
+}
 
 namespace detail {
 int NameStore::number_of(std::string_view name, std::size_t& prefix) {
@@ -75,6 +88,14 @@ void NameStore::push_literal(std::string_view name) {
     throw std::length_error("coordinate names: more than 4 GiB of characters in all");
   chars_.insert(chars_.end(), name.begin(), name.end());
   ends_.push_back(static_cast<std::uint32_t>(chars_.size()));
+}
+
+void NameStore::push_text(std::string_view text) {
+  if (segments_.empty() || segments_.back().k != 0)
+    segments_.push_back({size_, 0, static_cast<std::uint32_t>(ends_.size()), 0, 0});
+  segments_.back().count += 1;
+  push_literal(text);
+  ++size_;
 }
 
 void NameStore::push_body(const std::string* names, int k) {
@@ -117,20 +138,20 @@ void NameStore::push_body(const std::string* names, int k) {
 
 }  // namespace detail
 
-const std::string& Model::row_label(int r) const {
-  static const std::string none;
-  return r >= 0 && r < static_cast<int>(row_labels_.size()) ? row_labels_[r] : none;
+std::string Model::row_label(int r) const {
+  return r >= 0 && static_cast<std::size_t>(r) < row_labels_.size() ? row_labels_[static_cast<std::size_t>(r)]
+                                                                       : std::string();
 }
 
 std::string Model::describe_row(int r) const {
-  const std::string& label = row_label(r);
+  const std::string label = row_label(r);
   return "one-form row " + std::to_string(r) + (label.empty() ? "" : " (" + label + ")");
 }
 
 bool Model::is_chain() const { return elements_ && !elements_->chain.empty() && num_one_forms() > 0; }
 
 void Model::retract(ConstVecRef q, ConstVecRef delta, VecRef out) const {
-  if (rigid_.empty()) {
+  if (!has_rigid_bodies()) {
     out = q + delta;
     return;
   }

@@ -139,7 +139,7 @@ void ModelBuilder::add_checked_body(const std::string* names, int k, const Eigen
   const int first = static_cast<int>(draft_.names_.size());
   draft_.bodies_.push_back({draft_.mass_.size(), k, first, k, kind, 0});
   draft_.names_.push_body(names, k);
-  if (!draft_.velocity_names_.empty()) draft_.velocity_names_.insert(draft_.velocity_names_.end(), names, names + k);
+  if (draft_.velocity_names_.size() > 0) draft_.velocity_names_.push_body(names, k);
   for (int i = 0; i < k; ++i) insert_name(first + i, names[i]);
   draft_.mass_.add_block(block);
   draft_.num_configuration_ += k;
@@ -330,12 +330,16 @@ int ModelBuilder::add_rigid_body(const RigidBody& rb) {
   block.topLeftCorner<3, 3>() = inertia;
   for (int i = 0; i < d; ++i) block(3 + i, 3 + i) = rb.mass;
   Model& m = draft_;
-  if (m.velocity_names_.empty())  // the bodies before: the same names
-    for (std::size_t i = 0; i < m.names_.size(); ++i) m.velocity_names_.emplace_back(m.names_[i]);
+  if (m.velocity_names_.size() == 0)  // the bodies before (none rigid): the same names, body by body
+    for (const Body& before : m.bodies_) {
+      std::vector<std::string> same;
+      for (int i = 0; i < before.size; ++i) same.push_back(m.names_[static_cast<std::size_t>(before.q_offset + i)]);
+      m.velocity_names_.push_body(same.data(), before.size);
+    }
   const int q_first = static_cast<int>(m.names_.size()), v_first = m.mass_.size();
   m.bodies_.push_back({v_first, 3 + d, q_first, 4 + d, BodyKind::Rigid, d});
   m.names_.push_body(qnames.data(), static_cast<int>(qnames.size()));
-  m.velocity_names_.insert(m.velocity_names_.end(), vnames.begin(), vnames.end());
+  m.velocity_names_.push_body(vnames.data(), static_cast<int>(vnames.size()));
   for (int i = 0; i < 4 + d; ++i) insert_name(q_first + i, qnames[static_cast<std::size_t>(i)]);
   m.mass_.add_block(block);
   m.num_configuration_ += 4 + d;
@@ -350,6 +354,8 @@ int ModelBuilder::add_rigid_body(const RigidBody& rb) {
   r.inverse_inertia = (0.5 * (r.inverse_inertia + r.inverse_inertia.transpose())).eval();
   r.isotropic = inertia(0, 1) == 0.0 && inertia(0, 2) == 0.0 && inertia(1, 2) == 0.0 && inertia(0, 0) == inertia(1, 1) &&
                 inertia(1, 1) == inertia(2, 2);
+  if (m.rigid_.empty() && reserved_bodies_ > index)  // reserve() counted this body and the ones after it
+    sparse::reserve_buffer(m.rigid_, static_cast<std::size_t>(reserved_bodies_ - index));
   m.rigid_.push_back(r);
   return index;
 }
@@ -369,9 +375,9 @@ int ModelBuilder::add_row(const int* columns, int count, std::string label) {
   row_cols_.insert(row_cols_.end(), columns, columns + count);
   row_ptr_.push_back(static_cast<int>(row_cols_.size()));
   const int row = num_rows() - 1;
-  if (!label.empty()) {
-    draft_.row_labels_.resize(static_cast<std::size_t>(num_rows()));  // stays empty for unlabelled models
-    draft_.row_labels_[static_cast<std::size_t>(row)] = std::move(label);
+  if (!label.empty() || draft_.row_labels_.size() > 0) {  // stays empty for unlabelled models
+    while (draft_.row_labels_.size() < static_cast<std::size_t>(row)) draft_.row_labels_.push_text("");
+    draft_.row_labels_.push_text(label);
   }
   return row;
 }
@@ -762,6 +768,40 @@ void imply_rows(detail::ElementSet& set) {
   std::vector<int>().swap(set.value_offset);
 }
 
+// Whether the rows are those of a ball chain (ElementSet::ball_chain), values and columns included.
+bool ball_chain_layout(const detail::ElementSet& set, const Model& model, const sparse::RowPattern& pattern) {
+  const int n = model.num_bodies();
+  const auto& rigid = model.rigid_bodies();
+  if (static_cast<int>(rigid.size()) != n || set.rows.size() != static_cast<std::size_t>(3 * n - 1)) return false;
+  for (int b = 0; b < n; ++b) {
+    const RigidBlock& r = rigid[static_cast<std::size_t>(b)];
+    if (r.body != b || r.translation != 2 || r.v != 5 * b || r.q != 6 * b) return false;
+  }
+  using Row = detail::ElementRow;
+  for (int b = 0; b < n; ++b) {
+    const int r = 3 * b, o = 5 * b;
+    const Row x = set.rows[static_cast<std::size_t>(r)], y = set.rows[static_cast<std::size_t>(r + 1)];
+    if (x.kind != Row::Ball || x.part != 0 || y.kind != Row::Ball || y.part != 1 || x.element != b ||
+        y.element != b || set.balls[static_cast<std::size_t>(b)].body != b)
+      return false;
+    const int expected[3][4] = {{o, o + 1, o + 2, o + 3}, {o, o + 1, o + 2, o + 4}, {o + 3, o + 4, o + 8, o + 9}};
+    const int rows_here = b + 1 < n ? 3 : 2;
+    if (b + 1 < n) {
+      const Row rod = set.rows[static_cast<std::size_t>(r + 2)];
+      if (rod.kind != Row::Rod || rod.element != b) return false;
+      const Rod& e = set.rods[static_cast<std::size_t>(b)];
+      if (e.first != b || e.second != b + 1) return false;
+    }
+    for (int j = 0; j < rows_here; ++j) {
+      const int begin = pattern.row_ptr[static_cast<std::size_t>(r + j)];
+      if (begin != 12 * b + 4 * j || pattern.row_ptr[static_cast<std::size_t>(r + j + 1)] != begin + 4) return false;
+      for (int k = 0; k < 4; ++k)
+        if (pattern.col_idx[static_cast<std::size_t>(begin + k)] != expected[j][k]) return false;
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 // Hands the elements' callbacks to the model and derives the chain layout (element_set.hpp).
@@ -782,7 +822,8 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
   if ((!set->thrusts.empty() || set->has_rigid_forces()) && model.force_)
     fail("thrusts, body torques and forces and gravity make the model's external force: do not also give "
          "external_force()");
-  if (set->has_gravity && std::none_of(model.rigid_.begin(), model.rigid_.end(),
+  const std::vector<RigidBlock>& rigid = model.rigid_bodies();
+  if (set->has_gravity && std::none_of(rigid.begin(), rigid.end(),
                                        [](const RigidBlock& r) { return r.translation == 3; }))
     fail("gravity: no rigid body of the model moves in 3-D (translation 3): it would act on nothing");
   set->value_offset.assign(model.pattern_.row_ptr.begin(), model.pattern_.row_ptr.end() - 1);
@@ -793,9 +834,9 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
     for (const Body& b : model.bodies_) set->body_offset.push_back(b.offset);
   }
   if (model.has_rigid_bodies()) {
-    set->rigid = model.rigid_;
+    set->rigid = model.rigid_list_;
     set->rigid_of.assign(model.bodies_.size(), -1);
-    for (std::size_t i = 0; i < model.rigid_.size(); ++i) set->rigid_of[static_cast<std::size_t>(model.rigid_[i].body)] = static_cast<int>(i);
+    for (std::size_t i = 0; i < rigid.size(); ++i) set->rigid_of[static_cast<std::size_t>(rigid[i].body)] = static_cast<int>(i);
     for (const Body& b : model.bodies_) set->body_q_offset.push_back(b.q_offset);
   }
   std::stable_sort(set->thrusts.begin(), set->thrusts.end(),
@@ -831,6 +872,10 @@ void ModelBuilder::build_elements(Model& model, std::shared_ptr<detail::ElementS
       set->hitched_chain = body[b].flags == (b + 1 < bodies ? detail::kChainKnife | detail::kChainHitch
                                                             : detail::kChainKnife);
     imply_rows(*set);
+  }
+  if (!chain && element_rows > 0 && ball_chain_layout(*set, model, model.pattern_)) {
+    set->ball_chain = true;
+    set->chain_bandwidth = std::min(3, static_cast<int>(element_rows) - 1);
   }
 
   const std::shared_ptr<const detail::ElementSet> e = set;
@@ -948,12 +993,15 @@ Model ModelBuilder::build() && {
 
 Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elements) const {
   if (model.bodies_.empty()) fail("the model has no bodies");
+  if (!model.rigid_.empty()) {  // one list for the model, its copies and its elements
+    model.rigid_list_ = std::make_shared<const std::vector<RigidBlock>>(std::move(model.rigid_));
+    std::vector<RigidBlock>().swap(model.rigid_);
+  }
   if (model.has_rigid_bodies() && model.metric_)
     fail("a configuration-dependent metric (configuration_metric) and 3-D rigid bodies cannot be combined: the "
          "implicit general form integrates planar coordinates only");
   const int n = model.mass_.size();  // columns are velocity entries
   const int rows = static_cast<int>(model.pattern_.row_ptr.size()) - 1;
-  if (!model.row_labels_.empty()) model.row_labels_.resize(static_cast<std::size_t>(rows));
   model.inverse_mass_ = model.mass_.inverse();
 
   model.pattern_.rows = rows;

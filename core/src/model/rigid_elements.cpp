@@ -44,9 +44,8 @@ void rigid_row_values(const ElementSet& set, const ElementRow& row, const double
         values[0] = 1.0;
         return;
       }
-      const Mat3 r = rotation_at(q + set.rigid_body(ball.body).q);
       const double sign = row.part == 0 ? -ball.radius : ball.radius;
-      const Vec3 axis = r.row(row.part == 0 ? 1 : 0).transpose();
+      const Vec3 axis = rotation_row(q + set.rigid_body(ball.body).q, row.part == 0 ? 1 : 0);
       for (int i = 0; i < 3; ++i) values[i] = sign * axis[i];
       values[3] = 1.0;
       return;
@@ -71,6 +70,29 @@ void rigid_row_values(const ElementSet& set, const ElementRow& row, const double
     }
     default:
       return;
+  }
+}
+
+void ElementSet::ball_chain_values(const double* q, double* mu) const {
+  const int n = static_cast<int>(balls.size());
+  for (int b = 0; b < n; ++b) {
+    const double* qb = q + 6 * b;
+    const Vec3 row0 = rotation_row(qb, 0), row1 = rotation_row(qb, 1);
+    const double r = balls[static_cast<std::size_t>(b)].radius;
+    double* v = mu + 12 * b;
+    for (int i = 0; i < 3; ++i) {
+      v[i] = -r * row1[i];
+      v[4 + i] = r * row0[i];
+    }
+    v[3] = v[7] = 1.0;
+    if (b + 1 < n) {
+      const double length = rods[static_cast<std::size_t>(b)].length;
+      for (int i = 0; i < 2; ++i) {
+        const double d = (qb[4 + i] - qb[10 + i]) / length;
+        v[8 + i] = d;
+        v[10 + i] = -d;
+      }
+    }
   }
 }
 
@@ -125,7 +147,7 @@ double rigid_row_gap(const ElementSet& set, const ElementRow& row, const double*
 
 void rigid_forces(const ElementSet& set, double t, const double*, double* out) {
   if (set.has_gravity)
-    for (const RigidBlock& r : set.rigid)
+    for (const RigidBlock& r : *set.rigid)
       if (r.translation == 3) out[r.v + 5] -= r.mass * set.gravity;
   for (const BodyTorque& tq : set.torques) {
     const Vec3 tau = tq.torque(t);

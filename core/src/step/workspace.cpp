@@ -17,10 +17,17 @@
 
 #include "base/thread_team.hpp"
 #include "model/element_set.hpp"
+#include "step/chain/ball_chain_band.hpp"
 #include "step/chain/chain_partitions.hpp"
 #include "step/chain/chain_sweep.hpp"
 
 namespace nonholo {
+namespace {
+// A ball chain's C is banded by its layout (ElementSet::ball_chain): no pattern, no Gram.
+bool ball_chain(const Model& model) {
+  return model.num_one_forms() > 0 && model.element_set() && model.element_set()->ball_chain;
+}
+}  // namespace
 
 Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : model_(&model) {
   const int n = model.num_velocities(), nq = model.num_configuration(), m = model.num_one_forms();
@@ -61,7 +68,7 @@ Workspace::Workspace(const Model& model, const WorkspaceOptions& options) : mode
     sparse::zero_buffer(saved_lambda, m);
   }
   sparse::Backend backend = options.backend;
-  if (backend == sparse::Backend::Auto && model.is_chain()) backend = sparse::Backend::Banded;
+  if (backend == sparse::Backend::Auto && (model.is_chain() || ball_chain(model))) backend = sparse::Backend::Banded;
   // A chain split over threads keeps its tail partition's band in the last rows of its own,
   // which the split leaves unused, and two more (the tail's copy of its left separator's rows).
   factor_ = new_factor(backend, options.threads > 1 ? detail::kTailSpareRows : 0);
@@ -79,7 +86,7 @@ Workspace::~Workspace() = default;
 // built unless another backend is forced.
 std::unique_ptr<sparse::Factorization> Workspace::new_factor(sparse::Backend backend, int spare_rows) const {
   const int m = model_->num_one_forms();
-  if (m > 0 && model_->is_chain() && backend == sparse::Backend::Banded)
+  if (m > 0 && (model_->is_chain() || ball_chain(*model_)) && backend == sparse::Backend::Banded)
     return std::make_unique<sparse::BandedLdlt>(m, model_->element_set()->chain_bandwidth, spare_rows);
   if (m > 0) return sparse::make_factorization(backend, model_->gram().pattern());
   return nullptr;
@@ -305,9 +312,9 @@ Status Workspace::report_non_finite_one_forms() {
 }
 
 const char* Workspace::row_note(int row) {
-  const char* label = row >= 0 ? model_->row_label(row).c_str() : "";
-  if (!*label) return "";
-  std::snprintf(row_note_, sizeof row_note_, " (row %d is %s)", row, label);
+  const std::string label = row >= 0 ? model_->row_label(row) : std::string();
+  if (label.empty()) return "";
+  std::snprintf(row_note_, sizeof row_note_, " (row %d is %s)", row, label.c_str());
   return row_note_;
 }
 
@@ -319,6 +326,8 @@ Status Workspace::factorize(double min_pivot_ratio) {
   FactorStatus s;
   if (fused()) {  // a chain: its rows straight into the band (chain_passes.cpp)
     s = detail::factorize_chain(*model_, *this, min_pivot_ratio);
+  } else if (banded_ && ball_chain(*model_)) {  // likewise (ball_chain_band.cpp)
+    s = detail::factorize_ball_chain(*model_, *this, min_pivot_ratio);
   } else if (double* in_place = factor_->values_in_place()) {  // CHOLMOD: assemble into its own matrix
     model_->gram().assemble(mu_values.data(), in_place, factor_->slot_positions());
     s = factor_->factorize_in_place(min_pivot_ratio);

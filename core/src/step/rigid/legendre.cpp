@@ -48,7 +48,7 @@ bool solve_moser_veselov(const RigidBlock& b, const Vec3& hp, Vec3& v, int& iter
   if (b.isotropic) {  // v parallel to p: 2 J |v| / (1 + |v|^2) = h |p|, sin(angle) = h |p| / J
     const double j = b.inertia(0, 0), x = hp.norm() / j;
     if (!(x <= 1.0)) return false;
-    v = (hp / j) / (1.0 + std::sqrt((1.0 - x) * (1.0 + x)));  // tan(angle / 2) along p
+    v = hp * (1.0 / (j * (1.0 + std::sqrt((1.0 - x) * (1.0 + x)))));  // tan(angle / 2) along p: one division
     return true;
   }
   v = 0.5 * (b.inverse_inertia * hp);

@@ -41,6 +41,8 @@ SceneInfo ball_chain_scene() {
     body.any_inertia = any_inertia_of(p);
     body.translation = 2;
     ModelBuilder b;
+    // Per ball: 5 velocities, rows x and y of rolling (4 values each), a rod (4 values).
+    b.reserve(n, 5 * n, 3 * n - 1, 12 * n - 4);
     std::vector<BallSlots> slots;
     for (int i = 0; i < n; ++i) {
       b.add_rigid_body(body);

@@ -221,6 +221,9 @@ class BandedLdlt final : public Factorization {
  private:
   template <int KD>
   void solve_fixed(double* x);
+  template <int KD>
+  void eliminate_fixed(double min_pivot_ratio);
+  void eliminate_all(double min_pivot_ratio);
   FactorStatus no_pattern();
   int kd_;
   bool has_pattern_ = true;

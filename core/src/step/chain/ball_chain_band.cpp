@@ -1,0 +1,112 @@
+// C = mu M^-1 mu^T of a chain of rolling balls joined by rods, made row by row from mu's values
+// and eliminated as it goes (element_set.hpp's ball_chain layout). Ball b touches four rows: the
+// rod from ball b-1 (row 3b-1, [-d'] on b's centre), its rolling rows x and y (3b, 3b+1:
+// [angular | 1] on (Omega_b, xdot_b)) and the rod to ball b+1 (3b+2, [d] on b's centre). Each
+// entry of C is a sum over the balls two rows share of u^T W_b v, W_b ball b's block of M^-1;
+// a rod's diagonal is the only entry two balls share. Rows are eliminated in order: the rod
+// 3b-1 once ball b has added its part, then ball b's rolling rows.
+#include "step/chain/ball_chain_band.hpp"
+
+#include <nonholo/sparse/banded_ldlt.hpp>
+
+#include <algorithm>
+
+#include "model/element_set.hpp"
+
+namespace nonholo::detail {
+namespace {
+
+// The entries of C that ball b contributes, between its four rows: the rod before (p), rolling x
+// and y, the rod after (r).
+struct BallPart {
+  double pp, xp, yp, xx, yx, yy, rp, rx, ry, rr;
+};
+
+// From ball b's values (x: its 12 values; the rod before's on b, [-d'], at x[-2], x[-1]) and its
+// block of M^-1. Diagonal (every ball's block diagonal: w its 5 entries) or a 5 x 5 block.
+inline BallPart diagonal_part(const double* x, bool before, bool after, const double* w) {
+  const double p0 = before ? x[-2] : 0.0, p1 = before ? x[-1] : 0.0;
+  const double d0 = after ? x[8] : 0.0, d1 = after ? x[9] : 0.0;
+  BallPart e;
+  e.pp = w[3] * p0 * p0 + w[4] * p1 * p1;
+  e.xp = w[3] * x[3] * p0;
+  e.yp = w[4] * x[7] * p1;
+  e.xx = w[0] * x[0] * x[0] + w[1] * x[1] * x[1] + w[2] * x[2] * x[2] + w[3] * x[3] * x[3];
+  e.yx = w[0] * x[4] * x[0] + w[1] * x[5] * x[1] + w[2] * x[6] * x[2];
+  e.yy = w[0] * x[4] * x[4] + w[1] * x[5] * x[5] + w[2] * x[6] * x[6] + w[4] * x[7] * x[7];
+  e.rp = w[3] * d0 * p0 + w[4] * d1 * p1;
+  e.rx = w[3] * d0 * x[3];
+  e.ry = w[4] * d1 * x[7];
+  e.rr = w[3] * d0 * d0 + w[4] * d1 * d1;
+  return e;
+}
+
+inline BallPart block_part(const double* x, bool before, bool after, const double* w) {
+  double u[4][5] = {};  // the four rows on (Omega, xdot, ydot)
+  if (before) u[0][3] = x[-2], u[0][4] = x[-1];
+  for (int k = 0; k < 3; ++k) u[1][k] = x[k], u[2][k] = x[4 + k];
+  u[1][3] = x[3], u[2][4] = x[7];
+  if (after) u[3][3] = x[8], u[3][4] = x[9];
+  auto dot5 = [](const double* a, const double* b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4];
+  };
+  double wu[4][5];
+  for (int j = 0; j < 4; ++j)
+    for (int k = 0; k < 5; ++k) wu[j][k] = dot5(w + 5 * k, u[j]);  // w row-major, symmetric
+  return {dot5(u[0], wu[0]), dot5(u[1], wu[0]), dot5(u[2], wu[0]), dot5(u[1], wu[1]), dot5(u[2], wu[1]),
+          dot5(u[2], wu[2]), dot5(u[3], wu[0]), dot5(u[3], wu[1]), dot5(u[3], wu[2]), dot5(u[3], wu[3])};
+}
+
+template <int KD>
+sparse::FactorStatus factorize_rows(const Model& model, Workspace& ws, double min_pivot_ratio) {
+  const sparse::BlockDiagonal& minv = model.inverse_mass();
+  const bool diagonal = minv.is_diagonal();
+  const int n = model.num_bodies();
+  sparse::BandedLdlt& band = *ws.banded();
+  const int kd = KD >= 0 ? KD : band.bandwidth();
+  const double* mu = ws.mu_values.data();
+  // Band row r, every entry (zeros included), its entry (r, c) for c in [r - kd, r] at kd - (r - c).
+  auto start = [&](int r) {
+    double* a = band.row(r);
+    std::fill(a, a + kd + 1, 0.0);
+    return a + kd;  // the diagonal: entry (r, r - j) at [-j]
+  };
+  band.begin_rows();
+  for (int b = 0; b < n; ++b) {
+    const double* x = mu + 12 * b;
+    const bool before = b > 0, after = b + 1 < n;
+    const BallPart e = diagonal ? diagonal_part(x, before, after, minv.diagonal() + 5 * b)
+                                : block_part(x, before, after, minv.block_data(b));
+    const int r = 3 * b;
+    if (before) {  // the rod r - 1: its diagonal completed by ball b, then eliminated
+      band.row(r - 1)[kd] += e.pp;
+      if (!band.template eliminate_row<KD>(r - 1, min_pivot_ratio)) return band.finish_rows(min_pivot_ratio);
+    }
+    double* cx = start(r);  // rolling x and y: ball b alone
+    if (before) cx[-1] = e.xp;
+    cx[0] = e.xx;
+    if (!band.template eliminate_row<KD>(r, min_pivot_ratio)) return band.finish_rows(min_pivot_ratio);
+    double* cy = start(r + 1);
+    if (before) cy[-2] = e.yp;
+    cy[-1] = e.yx;
+    cy[0] = e.yy;
+    if (!band.template eliminate_row<KD>(r + 1, min_pivot_ratio)) return band.finish_rows(min_pivot_ratio);
+    if (after) {  // the rod r + 2: ball b's part now, ball b+1 adds to its diagonal
+      double* cr = start(r + 2);
+      if (before) cr[-3] = e.rp;
+      cr[-2] = e.rx;
+      cr[-1] = e.ry;
+      cr[0] = e.rr;
+    }
+  }
+  return band.finish_rows(min_pivot_ratio);
+}
+
+}  // namespace
+
+sparse::FactorStatus factorize_ball_chain(const Model& model, Workspace& ws, double min_pivot_ratio) {
+  return ws.banded()->bandwidth() == 3 ? factorize_rows<3>(model, ws, min_pivot_ratio)
+                                       : factorize_rows<-1>(model, ws, min_pivot_ratio);
+}
+
+}  // namespace nonholo::detail
