@@ -254,7 +254,10 @@ TEST(ModelBuilder, VelocityNamesAndRowLabelsReadBackPacked) {
   EXPECT_EQ(m.velocity_names(), expected);
   EXPECT_EQ(m.coordinate_name(6), "qw2");
   const std::vector<std::string> labels{"", "a label longer than a short string's buffer", "", "short", ""};
-  for (int r = 0; r < m.num_one_forms(); ++r) EXPECT_EQ(m.row_label(r), labels[static_cast<std::size_t>(r)]);
+  for (int r = 0; r < m.num_one_forms(); ++r) {
+    EXPECT_EQ(m.row_label(r), labels[static_cast<std::size_t>(r)]);
+    EXPECT_EQ(m.row_label_view(r), labels[static_cast<std::size_t>(r)]);
+  }
   EXPECT_EQ(m.row_label(-1), "");
   EXPECT_EQ(m.row_label(m.num_one_forms()), "");
   EXPECT_EQ(m.describe_row(3), "one-form row 3 (short)");

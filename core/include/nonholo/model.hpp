@@ -44,6 +44,8 @@ class NameStore {
   void push_body(const std::string* names, int k);
   /// Appends one name kept as it is (never read as "<prefix><n>"): a row's label.
   void push_text(std::string_view text);
+  /// Name i, which push_text() appended, without a copy (valid while the store lives).
+  std::string_view text(std::size_t i) const;
   /// n of a name "<prefix><n>" written as std::to_string writes n (at most 8 digits, no leading
   /// zero), with the prefix's length; -1 for any other name. (ModelBuilder looks such names up
   /// by number too.)
@@ -158,6 +160,8 @@ class Model {
   /// The label given to one-form row r (ModelBuilder::add_one_form), "" when none: messages
   /// about a row of mu or of C name it, so that a scene file's error points at its element.
   std::string row_label(int r) const;
+  /// The same without a copy, valid while the model lives (a step's failure message allocates nothing).
+  std::string_view row_label_view(int r) const;
   /// "one-form row r" followed by " (label)" when the row has one; for set-up messages.
   std::string describe_row(int r) const;
 

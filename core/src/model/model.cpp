@@ -98,6 +98,13 @@ void NameStore::push_text(std::string_view text) {
   ++size_;
 }
 
+std::string_view NameStore::text(std::size_t i) const {
+  const auto after = std::upper_bound(segments_.begin(), segments_.end(), i,
+                                      [](std::size_t at, const Segment& s) { return at < s.first; });
+  const Segment& s = *(after - 1);
+  return s.k == 0 ? literal(s.literal + (i - s.first)) : std::string_view();
+}
+
 void NameStore::push_body(const std::string* names, int k) {
   if (k <= 0) return;
   // The body's number: every name "<prefix><n>" with the same n, else -1.
@@ -138,9 +145,11 @@ void NameStore::push_body(const std::string* names, int k) {
 
 }  // namespace detail
 
-std::string Model::row_label(int r) const {
-  return r >= 0 && static_cast<std::size_t>(r) < row_labels_.size() ? row_labels_[static_cast<std::size_t>(r)]
-                                                                       : std::string();
+std::string Model::row_label(int r) const { return std::string(row_label_view(r)); }
+
+std::string_view Model::row_label_view(int r) const {
+  return r >= 0 && static_cast<std::size_t>(r) < row_labels_.size() ? row_labels_.text(static_cast<std::size_t>(r))
+                                                                       : std::string_view();
 }
 
 std::string Model::describe_row(int r) const {

@@ -312,9 +312,9 @@ Status Workspace::report_non_finite_one_forms() {
 }
 
 const char* Workspace::row_note(int row) {
-  const std::string label = row >= 0 ? model_->row_label(row) : std::string();
+  const std::string_view label = row >= 0 ? model_->row_label_view(row) : std::string_view();
   if (label.empty()) return "";
-  std::snprintf(row_note_, sizeof row_note_, " (row %d is %s)", row, label.c_str());
+  std::snprintf(row_note_, sizeof row_note_, " (row %d is %.*s)", row, static_cast<int>(label.size()), label.data());
   return row_note_;
 }
 
