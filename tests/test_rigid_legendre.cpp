@@ -80,6 +80,47 @@ TEST(RigidLegendre, EveryLagrangianSolvesEveryBodyShapeUpToHOmegaOne) {
   }
 }
 
+// An isotropic body takes the closed forms (no Newton): each W maps back to its momentum by the
+// inverse map, up to the fold of Moser-Veselov (h |p| = J: a quarter turn, sin a = 1) and a quarter
+// turn for the other two; past them, no solution. Moser-Veselov's unnormalised quaternion (the
+// drift's, legendre.hpp) is W's direction.
+TEST(RigidLegendre, IsotropicClosedFormsInvertToTheirMomentum) {
+  std::mt19937 random(7);
+  std::normal_distribution<double> normal;
+  for (double j : {0.4, 2.0, 1e-3}) {
+    RigidBlock b = block_of(j * Eigen::Matrix3d::Identity());
+    b.isotropic = true;
+    const double h = 0.01;
+    for (RotationLagrangian rotation : kLagrangians) {
+      double worst = 0.0;
+      for (int k = 0; k < 2000; ++k) {
+        const Eigen::Vector3d dir = Eigen::Vector3d(normal(random), normal(random), normal(random)).normalized();
+        const double h_p = j * std::pow(10.0, -4.0 + 3.99 * (k % 500) / 499.0);  // h |p| / J up to 0.98
+        const Eigen::Vector3d p = dir * (h_p / h);
+        Eigen::Vector4d w;
+        int iterations = -1;
+        ASSERT_TRUE(detail::solve_legendre(rotation, b, h, p, w, iterations)) << to_string(rotation) << " " << h_p / j;
+        EXPECT_EQ(iterations, 0);
+        EXPECT_NEAR(w.norm(), 1.0, 4e-16);
+        worst = std::max(worst, (detail::legendre_momentum(rotation, b, h, w) - p).norm() / p.norm());
+        if (rotation == RotationLagrangian::MoserVeselov) {
+          Eigen::Vector4d u;
+          ASSERT_TRUE(detail::isotropic_moser_veselov(j, h * p, u));
+          EXPECT_LE((u / u.norm() - w).lpNorm<Eigen::Infinity>(), 4e-16);
+        }
+      }
+      std::printf("isotropic J = %g, %s: inverse map within %.3g\n", j, to_string(rotation), worst);
+      EXPECT_LE(worst, 1e-13) << to_string(rotation);
+      // Past the fold (Moser-Veselov: h |p| > J) or a quarter turn (h |p| > (pi / 2) J): none.
+      Eigen::Vector4d w;
+      int iterations = 0;
+      const double beyond = rotation == RotationLagrangian::MoserVeselov ? 1.001 : 1.58;
+      EXPECT_FALSE(detail::solve_legendre(rotation, b, h, Eigen::Vector3d(0.0, beyond * j / h, 0.0), w, iterations));
+      EXPECT_FALSE(detail::solve_legendre(rotation, b, h, Eigen::Vector3d(0.0, NAN, 1.0), w, iterations));
+    }
+  }
+}
+
 TEST(RigidLegendre, EveryLagrangianRunsTheScenesOnEveryBodyShape) {
   for (const char* name : {"suslov", "veselova", "chaplygin_ball"}) {
     for (const auto& shape : testing::body_shapes()) {

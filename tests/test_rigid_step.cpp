@@ -415,7 +415,9 @@ TEST(RigidStep, BallChainBandIsTheGramOfItsRows) {
         v.segment<5>(5 * i) << 0.5 - 0.1 * i, 0.3, -0.2 + 0.05 * i, 0.1 * i, -0.3;
       }
       Workspace ws(m), dense(m, {sparse::Backend::Dense});
-      if (layout) ASSERT_NE(ws.banded(), nullptr);  // the band from the rows (auto picks it)
+      if (layout) {
+        ASSERT_NE(ws.banded(), nullptr);  // the band from the rows (auto picks it)
+      }
       ASSERT_EQ(ws.factorize_at(q, 0.0), Status::Ok) << ws.message();
       // The reference, dense: mu from the model's values and pattern, W = M^-1 entry by entry.
       const sparse::RowPattern& pattern = m.one_form_pattern();
@@ -443,6 +445,19 @@ TEST(RigidStep, BallChainBandIsTheGramOfItsRows) {
       ASSERT_EQ(ws.solve(rhs.data(), x.data()), Status::Ok);
       const Vector reference = c.ldlt().solve(rhs);
       EXPECT_LE((x - reference).lpNorm<Eigen::Infinity>(), 1e-13 * reference.lpNorm<Eigen::Infinity>());
+      // mu x and mu^T y, by the layout ball by ball (ElementSet::ball_chain_times) or by the
+      // pattern, are the dense products within the round-off of their sums: each sums at most four
+      // products, within 3 u of the sum of their magnitudes (u = eps / 2), so the two within 6 u.
+      Vector xv(m.num_velocities()), yv(m.num_one_forms()), mx(m.num_one_forms()), mty(m.num_velocities());
+      for (int i = 0; i < xv.size(); ++i) xv[i] = std::sin(0.3 + 1.1 * i);
+      for (int r = 0; r < yv.size(); ++r) yv[r] = std::cos(0.2 + 0.9 * r);
+      mty.setConstant(NAN);  // every entry written
+      m.mu_times(values.data(), xv.data(), mx.data());
+      m.mu_transpose_times(values.data(), yv.data(), mty.data());
+      const Vector mx_bound = mu.cwiseAbs() * xv.cwiseAbs(), mty_bound = mu.transpose().cwiseAbs() * yv.cwiseAbs();
+      for (int r = 0; r < mx.size(); ++r) EXPECT_LE(std::abs(mx[r] - mu.row(r).dot(xv)), 6.7e-16 * mx_bound[r]) << "row " << r;
+      for (int i = 0; i < mty.size(); ++i)
+        EXPECT_LE(std::abs(mty[i] - mu.col(i).dot(yv)), 6.7e-16 * mty_bound[i]) << "velocity " << i;
 
       State s = start_from_velocity(m, ws, 0.0, q, v), sd = start_from_velocity(m, dense, 0.0, q, v);
       const RattleOptions o = options(0.01, "0");

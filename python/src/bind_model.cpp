@@ -223,12 +223,32 @@ vector in velocity space (rows' columns, gradients, forces, generators) n_v (Mod
   builder_bodies(c);
   builder_callbacks(c);
   builder_elements(c);
-  c.def("symmetry", [](PyBuilder& b, const std::string& name, py::object generator) {
-            b.builder.symmetry(name, generator_callback(name, callable(b, std::move(generator))));
-          }, py::arg("name"), py::arg("generator"),
+  c.def("symmetry", [](PyBuilder& b, const std::string& name, py::object generator, py::object body,
+                       py::object value) {
+            if (!body.is_none() && !py::isinstance<py::int_>(body))
+              throw py::type_error("symmetry '" + name + "': body must be an int (a body's index), got " +
+                                   callback_detail::type_name(body));
+            const int index = body.is_none() ? -1 : body.cast<int>();
+            SymmetryGenerator xi;
+            if (index >= 0) {
+              const ModelBuilder::VelocityRange range = b.builder.velocities_of(index);
+              xi = local_generator_callback(name, callable(b, std::move(generator)), index, range.first, range.count);
+            } else {
+              xi = generator_callback(name, callable(b, std::move(generator)));
+            }
+            MomentumMap j = value.is_none() ? MomentumMap{} : momentum_map_callback(name, callable(b, std::move(value)));
+            b.builder.symmetry(name, std::move(xi), std::move(j), index);
+          }, py::arg("name"), py::arg("generator"), py::kw_only(), py::arg("body") = py::none(),
+          py::arg("value") = py::none(),
           R"(A horizontal symmetry by its generator xi(q) -> n_v values (velocity entries: a rigid body's
 Omega in its body frame, then its centre's velocity), lying in the constraint distribution. Its
-momentum map J = <xi(q), p> is added under `name`, and the restarts keep it exactly.)")
+momentum map J = <xi(q), p> is added under `name`, and the restarts keep it exactly.
+
+body: the symmetry is local to that body (xi is zero outside its velocities): the generator
+returns the body's entries only (Model.velocity_names says which), or all n_v with zeros
+elsewhere; the restarts then store its direction in O(1), so a chain of N balls keeps N spins in
+O(N) memory. value: J(q, p) itself, computed directly (it must equal <xi(q), p>: checked at the
+start), cheaper than through xi for a local symmetry of a large model.)")
       .def_property_readonly("calls_python", [](const PyBuilder& b) { return b.calls_python; },
                              "True once a Python callable has been given to it; the models it builds then call Python.")
       .def("build", [](const PyBuilder& b) { return PyModel{b.builder.build(), b.calls_python}; },

@@ -178,6 +178,35 @@ inline SymmetryGenerator generator_callback(const std::string& symmetry, pybind1
   };
 }
 
+// xi(q) of a symmetry local to one body (ModelBuilder.symmetry's body=): f returns the body's
+// `count` velocity entries, written at `first`; or all n_v entries, which must be zero outside
+// the body (the restarts read the body's entries alone: a nonzero elsewhere would be dropped).
+inline SymmetryGenerator local_generator_callback(const std::string& symmetry, pybind11::object f, int body,
+                                                  int first, int count) {
+  const std::string expected = "body " + std::to_string(body) + "'s velocity entries " + std::to_string(first) +
+                               ".." + std::to_string(first + count - 1) + ", or all n_v with zeros elsewhere";
+  return [c = Callable(std::move(f)), name = "symmetry '" + symmetry + "' generator(q)", expected, body, first,
+          count](ConstVecRef q, VecRef xi) {
+    namespace py = pybind11;
+    callback_detail::invoke(name.c_str(), [&] {
+      const py::object r = c(callback_detail::copy(q));
+      auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(r);
+      if (a && a.ndim() == 1 && a.size() == xi.size() && a.size() != count) {
+        const double* x = a.data();
+        for (py::ssize_t i = 0; i < a.size(); ++i)
+          if ((i < first || i >= first + count) && x[i] != 0.0)
+            throw CallbackError(name + " returned " + std::to_string(x[i]) + " at entry " + std::to_string(i) +
+                                ", outside body " + std::to_string(body) + " (a symmetry local to body " +
+                                std::to_string(body) + " is zero elsewhere)");
+        std::copy(x + first, x + first + count, xi.data() + first);
+        return;
+      }
+      if (!a) PyErr_Clear();
+      callback_detail::copy_result(r, xi.segment(first, count), name.c_str(), expected.c_str());
+    });
+  };
+}
+
 // f(t) -> 3 numbers (a rigid body's torque or force, elements.hpp's TimeVector).
 inline std::function<Eigen::Vector3d(double)> time_vector_callback(const std::string& name, const char* expected,
                                                                    pybind11::object f) {

@@ -325,6 +325,80 @@ def test_a_generator_of_the_wrong_size_is_reported():
     assert str(error.value) == message
 
 
+def two_balls(kind, wrong=False):
+    """Two Chaplygin balls (inertias 0.3:0.4:0.5 and 0.5:0.3:0.4) on the plane, each with its spin
+    declared: globally (kind "global": n_v entries), or local to its body (body=) returning the
+    body's 5 entries ("local"), all 10 with zeros elsewhere ("padded"), or with J given directly
+    ("value"). `wrong`: ball 1's padded generator leaks into ball 0's entries."""
+    b = nonholo.ModelBuilder()
+    for i, inertia in enumerate(([0.3, 0.4, 0.5], [0.5, 0.3, 0.4])):
+        b.add_rigid_body(mass=1.0, inertia=inertia, translation=2)
+        b.add_rolling_ball(i, radius=1.0)
+    for i in range(2):
+        own = lambda q, i=i: spin_generator(q[6 * i:6 * i + 6])
+        def padded(q, i=i):
+            xi = np.zeros(10)
+            xi[5 * i:5 * i + 5] = spin_generator(q[6 * i:6 * i + 6])
+            if wrong and i == 1:
+                xi[0] = 0.25
+            return xi
+        if kind == "global":
+            b.symmetry("spin%d" % i, padded)
+        elif kind == "local":
+            b.symmetry("spin%d" % i, own, body=i)
+        elif kind == "padded":
+            b.symmetry("spin%d" % i, padded, body=i)
+        else:
+            b.symmetry("spin%d" % i, own, body=i,
+                       value=lambda q, p, i=i: p[5 * i:5 * i + 3] @ nonholo.quaternion_matrix(q[6 * i:6 * i + 4])[2])
+    return b.build()
+
+
+def test_a_symmetry_local_to_one_body_is_kept_through_restarts():
+    q0 = np.concatenate([nonholo.axis_angle_quaternion([1.0, 2.0, 3.0], 0.7), [0.0, 0.0],
+                         nonholo.axis_angle_quaternion([2.0, -1.0, 0.5], 0.4), [4.0, 0.0]])
+    v0 = [1.0, 0.5, 2.0, 0.0, 0.0, -0.5, 1.5, 0.8, 0.0, 0.0]
+    options = nonholo.RattleOptions(0.01, restart="auto", restart_tolerance=1e-9)  # restarts at most steps
+    finals = {}
+    for kind in ("global", "local", "padded", "value"):
+        model = two_balls(kind)
+        ws = nonholo.Workspace(model)
+        s = nonholo.start_from_velocity(model, ws, 0.0, q0, v0)
+        j0 = np.array([s.p[5 * i:5 * i + 3] @ nonholo.quaternion_matrix(s.q[6 * i:6 * i + 4])[2] for i in range(2)])
+        np.testing.assert_allclose(nonholo.momentum_maps(model, s), j0, rtol=0, atol=1e-15)
+        drift = 0.0
+        for _ in range(500):
+            assert nonholo.step(model, ws, s, options) == nonholo.Status.Ok, ws.message
+            j = [s.p[5 * i:5 * i + 3] @ nonholo.quaternion_matrix(s.q[6 * i:6 * i + 4])[2] for i in range(2)]
+            drift = max(drift, np.abs(np.array(j) - j0).max())
+        print(f"two balls, spins declared {kind}: {s.restarts} restarts in 500 steps, J drift {drift:.3g}")
+        assert s.restarts >= 250 and drift <= 1e-12
+        finals[kind] = s.q
+    # Local or global, the same restarts: the same trajectory within round-off.
+    for kind in ("local", "padded", "value"):
+        np.testing.assert_allclose(finals[kind], finals["global"], rtol=0, atol=1e-12)
+
+
+def test_a_local_symmetry_is_checked():
+    q0 = np.concatenate([nonholo.axis_angle_quaternion([1.0, 2.0, 3.0], 0.7), [0.0, 0.0],
+                         nonholo.axis_angle_quaternion([2.0, -1.0, 0.5], 0.4), [4.0, 0.0]])
+    model = two_balls("padded", wrong=True)
+    with pytest.raises(ValueError, match=r"symmetry 'spin1' generator\(q\) returned 0.25.* at entry 0, outside body 1"):
+        nonholo.start_from_velocity(model, nonholo.Workspace(model), 0.0, q0, np.zeros(10))
+    b = nonholo.ModelBuilder()
+    b.add_rigid_body(mass=1.0, inertia=[0.3, 0.4, 0.5], translation=2)
+    with pytest.raises(TypeError, match="body must be an int"):
+        b.symmetry("spin", spin_generator, body="0")
+    with pytest.raises(ValueError, match="body 3 does not exist"):
+        b.symmetry("spin", spin_generator, body=3)
+    b.add_rolling_ball(0, radius=1.0)
+    b.symmetry("spin", lambda q: spin_generator(q)[:3], body=0)  # 3 of the body's 5 entries
+    model = b.build()
+    with pytest.raises(ValueError, match=r"returned an array of shape \(3,\), expected 5 values \(body 0's velocity "
+                                         r"entries 0..4, or all n_v with zeros elsewhere\)"):
+        ball_start(model)
+
+
 def test_a_generator_that_raises_fails_the_step_with_its_text():
     def raising(q):
         raise ArithmeticError(f"no spin at qw = {q[0]:.3f}")

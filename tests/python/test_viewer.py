@@ -134,10 +134,11 @@ def test_a_3d_scene_is_drawn_with_three_js_and_moves(tmp_path):
                         np.full(len(result.t), r)], axis=1)
     images = []
     for t in (0, 3):
-        attrs = assert_no_errors(browser(page, "t=%g&paused=1" % t))
+        attrs = assert_no_errors(browser(page, "t=%g&paused=1&axes=0" % t))
         assert attrs["mode"] == "3d", "no WebGL in this chromium"
+        assert attrs["axes"] == "0"
         shot = tmp_path / ("ball-%g.png" % t)
-        browser(page, "t=%g&paused=1" % t, screenshot=shot)
+        browser(page, "t=%g&paused=1&axes=0" % t, screenshot=shot)  # the ball alone: its centre below
         stage = np.asarray(Image.open(shot).convert("RGB").crop((0, 0, WIDTH - 300, HEIGHT - 44)), int)
         coloured = (stage.max(axis=2) - stage.min(axis=2)) > 60  # the ball's octants
         assert coloured.sum() > 2000, "no ball drawn at t=%g" % t
@@ -148,6 +149,32 @@ def test_a_3d_scene_is_drawn_with_three_js_and_moves(tmp_path):
         assert np.hypot(middle[0] - X, middle[1] - Y) < 6, (middle, X, Y)
         images.append(stage)
     assert np.abs(images[0] - images[1]).sum() > 1000
+    # By default each body frame's axes are drawn (1.8 r from the centre: 0.8 r of each outside the
+    # ball): the pixels that differ from the same view without them, around the ball's centre;
+    # between t = 0 and 3 the ball turned, and so did they (their pixels' mean offset from the
+    # centre moved).
+    offsets = []
+    for t, plain in zip((0, 3), images):
+        assert assert_no_errors(browser(page, "t=%g&paused=1" % t))["axes"] == "1"
+        shot = tmp_path / ("axes-%g.png" % t)
+        browser(page, "t=%g&paused=1" % t, screenshot=shot)
+        stage = np.asarray(Image.open(shot).convert("RGB").crop((0, 0, WIDTH - 300, HEIGHT - 44)), int)
+        rows, cols = np.nonzero(np.abs(stage - plain).sum(axis=2) > 60)
+        X, Y = project(centres[int(np.argmin(abs(result.t - t)))], centres, r, stage.shape[1], stage.shape[0])
+        reach = np.hypot(cols - X, rows - Y)
+        print("t = %g: %d pixels of axes, up to %.0f px from the centre" % (t, len(rows), reach.max(initial=0)))
+        assert len(rows) > 30, "no body axes drawn at t=%g" % t
+        assert reach.max() < 3 * radius_px(centres, r, stage.shape[0]), "axes drawn away from the ball"
+        offsets.append(np.array([(cols - X).mean(), (rows - Y).mean()]))
+    assert np.hypot(*(offsets[0] - offsets[1])) > 3, ("the axes did not turn with the ball", offsets)
+
+
+def radius_px(centres, r, height):
+    """About the ball's radius on the screen in pixels at the documented initial camera's distance."""
+    lo, hi = centres.min(axis=0), centres.max(axis=0)
+    size = max((hi - lo).max(), 4 * r)
+    dist = 1.3 * (size / 2 + 2 * r) / np.tan(np.radians(20))
+    return r / (dist * np.tan(np.radians(20))) * height / 2
 
 
 def project(point, centres, r, width, height):

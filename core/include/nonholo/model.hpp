@@ -150,6 +150,9 @@ class Model {
   /// 3-D rigid bodies (nonholo/rigid_body.hpp), in body order.
   ///@{
   bool has_rigid_bodies() const { return !rigid_bodies().empty(); }
+  /// Whether every body is rigid, each one block of M^-1, all with the same translation d:
+  /// then d (0, 2 or 3), else -1. The drift then takes each body in one pass (rigid/drift.cpp).
+  int rigid_only_translation() const { return rigid_only_translation_; }
   const std::vector<RigidBlock>& rigid_bodies() const { return rigid_list_ ? *rigid_list_ : rigid_; }
   ///@}
   /// out = q moved along the velocity-space displacement delta (n_v entries): flat
@@ -245,6 +248,7 @@ class Model {
   std::vector<RigidBlock> rigid_;  // while the model is built; then in rigid_list_
   // The rigid bodies of a built model, shared with its copies and its elements (ElementSet).
   std::shared_ptr<const std::vector<RigidBlock>> rigid_list_;
+  int rigid_only_translation_ = -1;
   sparse::BlockDiagonal mass_, inverse_mass_;
   sparse::RowPattern pattern_;
   struct LazyGram;  // model.cpp: a once_flag and the assembler; shared by copies of the model

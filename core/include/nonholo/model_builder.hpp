@@ -34,6 +34,14 @@ class ModelBuilder {
   /// and finite, and the inertia finite, symmetric and positive definite (condition number at
   /// most 1e12, as add_body); the names follow RigidBody::name.
   int add_rigid_body(const RigidBody& body);
+  /// Where a body added so far has its velocities: the first entry (its offset in p, in a
+  /// force, in a row of mu, in a symmetry's generator) and how many (3 for a planar body,
+  /// 3 + translation for a rigid one). Throws for a body that does not exist.
+  struct VelocityRange {
+    int first = 0;  ///< the body's first velocity entry
+    int count = 0;  ///< its number of velocity entries
+  };
+  VelocityRange velocities_of(int body) const;  ///< see VelocityRange
 
   /// Optional: room for a model of this size, so that a million bodies are added without
   /// regrowing (and copying) the builder's arrays; the name table is sized once. Elements get

@@ -148,12 +148,35 @@ struct ElementSet {
   // The general callbacks (row order, pattern order of values).
   void values(ConstVecRef q, VecRef mu) const;
   void ball_chain_values(const double* q, double* mu) const;  // values() of a ball_chain (rigid_elements.cpp)
+  void ball_chain_values(const double* q, double* mu, int first, int last) const;  // balls [first, last) only
+  // Model::mu_times and mu_transpose_times of a ball_chain, ball by ball from the layout (no
+  // column indices; the pattern's order of sums, so the same bits): ball_chain_products.cpp.
+  void ball_chain_times(const double* mu, const double* x, double* y) const;
+  void ball_chain_transpose_times(const double* mu, const double* lambda, double* g) const;
   void bias(ConstVecRef q, ConstVecRef qdot, VecRef bias) const;
   void gap(ConstVecRef q, VecRef g) const;
   double potential(ConstVecRef q) const;
   void gradient(ConstVecRef q, VecRef grad) const;
   void force(double t, ConstVecRef q, VecRef out) const;
 };
+
+// Ball b's velocities' share of mu^T lambda, from its values x (the rod before's at x[-2], x[-1])
+// and the multipliers l of its rows (l[-1]: the rod before), in the pattern's order of sums
+// (ElementSet::ball_chain_transpose_times, ball_chain_kick).
+inline void ball_chain_transpose_ball(const double* x, const double* l, bool before, bool after, double* g) {
+  for (int i = 0; i < 3; ++i) g[i] = x[i] * l[0] + x[4 + i] * l[1];
+  double gx = x[3] * l[0], gy = x[7] * l[1];
+  if (before) {
+    gx = x[-2] * l[-1] + gx;
+    gy = x[-1] * l[-1] + gy;
+  }
+  if (after) {
+    gx += x[8] * l[2];
+    gy += x[9] * l[2];
+  }
+  g[3] = gx;
+  g[4] = gy;
+}
 
 // The rows, bias, gaps and forces of the elements on rigid bodies and of rods (rigid_elements.cpp).
 // row_values writes the row's values in the order of its columns (ModelBuilder's add_*).

@@ -188,6 +188,7 @@ void Model::applied_force(double t, ConstVecRef q, VecRef f, VecRef scratch) con
 }
 
 void Model::mu_times(const double* mu, const double* x, double* y) const {
+  if (elements_ && elements_->ball_chain) return elements_->ball_chain_times(mu, x, y);
   const int* rp = pattern_.row_ptr.data();
   const int* ci = pattern_.col_idx.data();
   for (int r = 0; r < pattern_.rows; ++r) {
@@ -198,6 +199,7 @@ void Model::mu_times(const double* mu, const double* x, double* y) const {
 }
 
 void Model::mu_transpose_times(const double* mu, const double* lambda, double* g) const {
+  if (elements_ && elements_->ball_chain) return elements_->ball_chain_transpose_times(mu, lambda, g);
   const int* rp = pattern_.row_ptr.data();
   const int* ci = pattern_.col_idx.data();
   for (int i = 0; i < pattern_.cols; ++i) g[i] = 0.0;

@@ -802,6 +802,19 @@ bool ball_chain_layout(const detail::ElementSet& set, const Model& model, const 
   return true;
 }
 
+// Model::rigid_only_translation: every body rigid, each one block of M^-1, one translation.
+int rigid_only_translation(const Model& model) {
+  const auto& rigid = model.rigid_bodies();
+  const sparse::BlockDiagonal& minv = model.inverse_mass();
+  if (rigid.empty() || static_cast<int>(rigid.size()) != model.num_bodies()) return -1;
+  const int d = rigid.front().translation;
+  for (const RigidBlock& r : rigid)
+    if (r.translation != d ||
+        (!minv.is_diagonal() && (minv.block_offset(r.body) != r.v || minv.block_size(r.body) != 3 + d)))
+      return -1;
+  return d;
+}
+
 }  // namespace
 
 // Hands the elements' callbacks to the model and derives the chain layout (element_set.hpp).
@@ -931,6 +944,14 @@ ModelBuilder& ModelBuilder::momentum_map(const std::string& name, MomentumMap ma
   return *this;
 }
 
+ModelBuilder::VelocityRange ModelBuilder::velocities_of(int body) const {
+  if (body < 0 || body >= static_cast<int>(draft_.bodies_.size()))
+    fail("body " + std::to_string(body) + " does not exist (the model has " + std::to_string(draft_.bodies_.size()) +
+         " bodies so far)");
+  const Body& b = draft_.bodies_[static_cast<std::size_t>(body)];
+  return {b.offset, b.size};
+}
+
 ModelBuilder& ModelBuilder::symmetry(const std::string& name, SymmetryGenerator generator, MomentumMap value,
                                      int body) {
   if (!generator) fail("symmetry '" + name + "': the generator is empty");
@@ -1003,6 +1024,7 @@ Model ModelBuilder::finish(Model model, std::shared_ptr<detail::ElementSet> elem
   const int n = model.mass_.size();  // columns are velocity entries
   const int rows = static_cast<int>(model.pattern_.row_ptr.size()) - 1;
   model.inverse_mass_ = model.mass_.inverse();
+  model.rigid_only_translation_ = rigid_only_translation(model);
 
   model.pattern_.rows = rows;
   model.pattern_.cols = n;

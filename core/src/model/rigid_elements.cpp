@@ -74,8 +74,12 @@ void rigid_row_values(const ElementSet& set, const ElementRow& row, const double
 }
 
 void ElementSet::ball_chain_values(const double* q, double* mu) const {
+  ball_chain_values(q, mu, 0, static_cast<int>(balls.size()));
+}
+
+void ElementSet::ball_chain_values(const double* q, double* mu, int first, int last) const {
   const int n = static_cast<int>(balls.size());
-  for (int b = 0; b < n; ++b) {
+  for (int b = first; b < last; ++b) {
     const double* qb = q + 6 * b;
     const Vec3 row0 = rotation_row(qb, 0), row1 = rotation_row(qb, 1);
     const double r = balls[static_cast<std::size_t>(b)].radius;

@@ -22,6 +22,7 @@
 #include "base/callback_guard.hpp"
 #include "base/option_checks.hpp"
 #include "model/element_set.hpp"
+#include "step/chain/ball_chain_band.hpp"
 #include "step/chain/chain_sweep.hpp"
 #include "step/rattle_internal.hpp"
 #include "step/restart_internal.hpp"
@@ -248,8 +249,7 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
   // the momentum arrives at q_{k+1} as p_arrive, turned by W^T; velocity = M^-1 of it).
   const bool rigid = model.has_rigid_bodies();
   if (rigid) {
-    ws.p_half = s.p + half * s.force;
-    const Status status = detail::rigid_drift(model, ws, s.q, h, options.rotation, s.t);
+    const Status status = detail::rigid_drift(model, ws, s.q, h, options.rotation, s.t, &s);
     if (status != Status::Ok) return status;
   } else {
     kick_drift(minv, h, s.q.data(), s.p.data(), s.force.data(), ws);
@@ -272,7 +272,11 @@ Status advance(const Model& model, Workspace& ws, State& s, const RattleOptions&
   const double* ph = forced ? ws.p_hat.data() : carried.data();
 
   // Constraint half kick: the multipliers that put p~_{k+1} in the annihilator of D.
-  if (m > 0) {
+  if (m > 0 && detail::ball_chain_kick_applies(model, ws)) {  // two passes (ball_chain_band.cpp)
+    const Status status = detail::ball_chain_kick(model, ws, ph, forced ? ws.applied.data() : nullptr, h,
+                                                  options.min_pivot_ratio, check);
+    if (status != Status::Ok) return status;
+  } else if (m > 0) {
     Status status = ws.evaluate_one_forms(ws.q_next);
     if (status == Status::Ok) status = ws.factorize(options.min_pivot_ratio);
     if (status != Status::Ok) return status;

@@ -104,6 +104,109 @@ sparse::FactorStatus factorize_rows(const Model& model, Workspace& ws, double mi
 
 }  // namespace
 
+Status ball_chain_kick(const Model& model, Workspace& ws, const double* p_hat, const double* applied, double h,
+                       double min_pivot_ratio, double& check) {
+  constexpr int KD = 3;
+  const ElementSet& set = *model.element_set();
+  const sparse::BlockDiagonal& minv = model.inverse_mass();
+  const bool diagonal = minv.is_diagonal();
+  const int n = model.num_bodies(), m = model.num_one_forms();
+  sparse::BandedLdlt& band = *ws.banded();
+  const double* q = ws.q_next.data();
+  const double* v = ws.velocity.data();
+  double* mu = ws.mu_values.data();
+  double* y = ws.lambda.data();  // the right-hand side, forward substituted, then lambda
+  const double scale = -2.0 / h;
+  ws.forget_one_forms();
+  double* key = ws.one_form_key();
+  auto start = [&](int r) {
+    double* a = band.row(r);
+    std::fill(a, a + KD + 1, 0.0);
+    return a + KD;
+  };
+  // Row r's elimination and forward substitution (solve_fixed's arithmetic); false on a failed pivot.
+  auto eliminate = [&](int r, double rhs) {
+    if (!band.eliminate_row<KD>(r, min_pivot_ratio)) return false;
+    y[r] = rhs * scale;
+    if (r < KD)
+      band.forward_row<KD>(r, y);
+    else
+      band.forward_interior_row<KD, 0>(r, y);
+    return true;
+  };
+  band.begin_rows();
+  bool ok = true;
+  int b = 0;
+  for (; ok && b < n; ++b) {  // forward: rows, elimination, forward substitution
+    set.ball_chain_values(q, mu, b, b + 1);
+    std::copy(q + 6 * b, q + 6 * b + 6, key + 6 * b);
+    const double* x = mu + 12 * b;
+    const double* vb = v + 5 * b;
+    const bool before = b > 0, after = b + 1 < n;
+    const BallPart e = diagonal ? diagonal_part(x, before, after, minv.diagonal() + 5 * b)
+                                : block_part(x, before, after, minv.block_data(b));
+    const int r = 3 * b;
+    if (before) {  // the rod r - 1, between balls b-1 and b: ElementSet::ball_chain_times' sum
+      band.row(r - 1)[KD] += e.pp;
+      const double* xp = x - 12;
+      if (!(ok = eliminate(r - 1, xp[8] * vb[-2] + xp[9] * vb[-1] + xp[10] * vb[3] + xp[11] * vb[4]))) break;
+    }
+    double* cx = start(r);
+    if (before) cx[-1] = e.xp;
+    cx[0] = e.xx;
+    if (!(ok = eliminate(r, x[0] * vb[0] + x[1] * vb[1] + x[2] * vb[2] + x[3] * vb[3]))) break;
+    double* cy = start(r + 1);
+    if (before) cy[-2] = e.yp;
+    cy[-1] = e.yx;
+    cy[0] = e.yy;
+    if (!(ok = eliminate(r + 1, x[4] * vb[0] + x[5] * vb[1] + x[6] * vb[2] + x[7] * vb[4]))) break;
+    if (after) {
+      double* cr = start(r + 2);
+      if (before) cr[-3] = e.rp;
+      cr[-2] = e.rx;
+      cr[-1] = e.ry;
+      cr[0] = e.rr;
+    }
+  }
+  const sparse::FactorStatus status = band.finish_rows(min_pivot_ratio);
+  if (!ok || status != sparse::FactorStatus::Ok) {
+    set.ball_chain_values(q, mu, std::min(b + 1, n), n);  // all of mu, for the report's scan
+    return ws.report_factor_failure(status);
+  }
+  // Backward: lambda row by row from the last; ball c's force and p~ once its rows' and the rod
+  // before's multipliers are known (at ball c - 1's rows).
+  const double half = 0.5 * h;
+  double sum = 0.0;
+  auto finish_ball = [&](int c) {
+    double g[5];
+    ball_chain_transpose_ball(mu + 12 * c, y + 3 * c, c > 0, c + 1 < n, g);
+    for (int i = 0; i < 5; ++i) {
+      const int k = 5 * c + i;
+      ws.p_next[k] = p_hat[k] + half * g[i];
+      ws.force_next[k] = applied ? g[i] + applied[k] : g[i];
+      sum += ws.p_next[k] + ws.force_next[k];
+    }
+  };
+  for (int r = m - 1; r >= 0; --r) {
+    if (r + KD >= m)
+      band.backward_row<KD>(r, y);
+    else
+      band.backward_interior_row<KD, KD>(r, y);
+    if (r % 3 == 0) {  // ball r / 3's rows are done: ball r / 3 + 1 has all of its multipliers
+      if (r / 3 + 1 < n) finish_ball(r / 3 + 1);
+    }
+  }
+  finish_ball(0);
+  ws.one_forms_factorized_at_key(true);
+  ws.forget_sincos();
+  check += sum + ws.q_next.sum();
+  return Status::Ok;
+}
+
+bool ball_chain_kick_applies(const Model& model, Workspace& ws) {
+  return ws.banded() && model.element_set() && model.element_set()->ball_chain && ws.banded()->bandwidth() == 3;
+}
+
 sparse::FactorStatus factorize_ball_chain(const Model& model, Workspace& ws, double min_pivot_ratio) {
   return ws.banded()->bandwidth() == 3 ? factorize_rows<3>(model, ws, min_pivot_ratio)
                                        : factorize_rows<-1>(model, ws, min_pivot_ratio);

@@ -53,13 +53,95 @@ int drift(const Model& model, RotationLagrangian rotation, double h, const doubl
   return -1;
 }
 
+namespace {
+
+// y = W x on one body's velocities, W its block of M^-1 (k entries from `diagonal`, or the
+// row-major k x k `block`): BlockDiagonal::multiply's sums, so the same bits.
+template <int K>
+inline void block_times(const double* diagonal, const double* block, const double* x, double* y) {
+  if (diagonal) {
+    for (int i = 0; i < K; ++i) y[i] = diagonal[i] * x[i];
+    return;
+  }
+  for (int i = 0; i < K; ++i) {
+    double s = 0.0;
+    for (int j = 0; j < K; ++j) s += block[i * K + j] * x[j];
+    y[i] = s;
+  }
+}
+
+// drift() and both products with M^-1 of rigid_drift in one pass, body by body, for models whose
+// bodies are all rigid with K = 3 + translation velocities each (a ball chain: K = 5): the
+// general path streams the momenta and velocities three times. With `kick` (p_k and f_k), p is
+// first made p_k + (h/2) f_k in the same pass. On failure returns the body and leaves its
+// M^-1 p in `velocity` (the message reads it).
+template <int K>
+int drift_rigid_only(const Model& model, RotationLagrangian rotation, double h, const double* q, const State* kick,
+                     double* p, double* q_out, double* p_out, double* velocity, int& iterations) {
+  iterations = 0;
+  const sparse::BlockDiagonal& minv = model.inverse_mass();
+  const bool diagonal = minv.is_diagonal();
+  const bool moser_veselov = rotation == RotationLagrangian::MoserVeselov;
+  const double half = 0.5 * h;
+  for (const RigidBlock& r : model.rigid_bodies()) {
+    const double* w = diagonal ? minv.diagonal() + r.v : nullptr;
+    const double* block = diagonal ? nullptr : minv.block_data(r.body);
+    double v_in[K], p_at[K];
+    if (kick)
+      for (int i = 0; i < K; ++i) p[r.v + i] = kick->p[r.v + i] + half * kick->force[r.v + i];
+    block_times<K>(w, block, p + r.v, v_in);
+    Vec4 turn;
+    int taken = 0;
+    const Vec3 p_omega = vector_at(p + r.v);
+    // An isotropic Moser-Veselov turn unnormalised: the turned orientation's renormalisation
+    // takes |u| too (two square roots and one division a body less; the rotation is the same).
+    const bool solved = moser_veselov && r.isotropic
+                            ? isotropic_moser_veselov(r.inertia(0, 0), h * p_omega, turn)
+                            : solve_legendre(rotation, r, h, p_omega, turn, taken);
+    if (!solved) {
+      for (int i = 0; i < K; ++i) velocity[r.v + i] = v_in[i];
+      return r.body;
+    }
+    iterations = std::max(iterations, taken);
+    const Vec4 turned = compose_normalised(quaternion_at(q + r.q), turn);
+    for (int i = 0; i < 4; ++i) q_out[r.q + i] = turned[i];
+    const Vec3 arrived = r.isotropic ? p_omega : rotate_back(turn, p_omega);
+    for (int i = 0; i < 3; ++i) p_at[i] = arrived[i];
+    for (int i = 3; i < K; ++i) {
+      q_out[r.q + 1 + i] = q[r.q + 1 + i] + h * v_in[i];
+      p_at[i] = p[r.v + i];
+    }
+    for (int i = 0; i < K; ++i) p_out[r.v + i] = p_at[i];
+    block_times<K>(w, block, p_at, velocity + r.v);
+  }
+  return -1;
+}
+
+}  // namespace
+
 Status rigid_drift(const Model& model, Workspace& ws, ConstVecRef q, double h, RotationLagrangian rotation,
-                   double t) {
+                   double t, const State* kick) {
   const auto& minv = model.inverse_mass();
-  minv.multiply(ws.p_half.data(), ws.velocity.data());
-  int iterations = 0;
-  const int failed = drift(model, rotation, h, q.data(), ws.p_half.data(), ws.velocity.data(), ws.q_next.data(),
-                           ws.p_arrive.data(), iterations);
+  int iterations = 0, failed = -1;
+  double* qn = ws.q_next.data();
+  double* pa = ws.p_arrive.data();
+  double* v = ws.velocity.data();
+  switch (model.rigid_only_translation()) {
+    case 0:
+      failed = drift_rigid_only<3>(model, rotation, h, q.data(), kick, ws.p_half.data(), qn, pa, v, iterations);
+      break;
+    case 2:
+      failed = drift_rigid_only<5>(model, rotation, h, q.data(), kick, ws.p_half.data(), qn, pa, v, iterations);
+      break;
+    case 3:
+      failed = drift_rigid_only<6>(model, rotation, h, q.data(), kick, ws.p_half.data(), qn, pa, v, iterations);
+      break;
+    default:
+      if (kick) ws.p_half = kick->p + (0.5 * h) * kick->force;
+      minv.multiply(ws.p_half.data(), v);
+      failed = drift(model, rotation, h, q.data(), ws.p_half.data(), v, qn, pa, iterations);
+      if (failed < 0) minv.multiply(pa, v);
+  }
   if (failed >= 0) {
     const Body& body = model.body(failed);
     const Vec3 omega(ws.velocity[body.offset], ws.velocity[body.offset + 1], ws.velocity[body.offset + 2]);
@@ -76,7 +158,6 @@ Status rigid_drift(const Model& model, Workspace& ws, ConstVecRef q, double h, R
                    0.5 / omega.norm());
   }
   ws.legendre_iterations = std::max(ws.legendre_iterations, iterations);
-  minv.multiply(ws.p_arrive.data(), ws.velocity.data());
   return Status::Ok;
 }
 
@@ -126,6 +207,7 @@ namespace nonholo {
 void gyroscopic_acceleration(const Model& model, ConstVecRef v, VecRef out) {
   out.setZero();
   for (const RigidBlock& r : model.rigid_bodies()) {
+    if (r.isotropic) continue;  // (J Omega) x Omega = 0: only round-off to compute
     const detail::Vec3 omega = v.segment<3>(r.v);
     out.segment<3>(r.v) = r.inverse_inertia * (r.inertia * omega).cross(omega);
   }

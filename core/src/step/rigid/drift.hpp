@@ -7,6 +7,7 @@
 // equations, and the step back to q_{k-1} that the potential's average needs.
 #include <nonholo/model.hpp>
 #include <nonholo/rattle_options.hpp>
+#include <nonholo/state.hpp>
 #include <nonholo/status.hpp>
 #include <nonholo/workspace.hpp>
 
@@ -21,10 +22,11 @@ int drift(const Model& model, RotationLagrangian rotation, double h, const doubl
 
 // The step's drift on a workspace: from q with ws.p_half to ws.q_next and ws.p_arrive, then
 // ws.velocity = M^-1 ws.p_arrive; ws.legendre_iterations is raised to the Newton iterations
-// taken. Status::LegendreNotSolved (naming the body, h |Omega| and t) when a body's transform
-// has no solution.
+// taken. With `kick`, ws.p_half = kick->p + (h/2) kick->force first (the step's half kick, in
+// the same pass where it can). Status::LegendreNotSolved (naming the body, h |Omega| and t)
+// when a body's transform has no solution.
 Status rigid_drift(const Model& model, Workspace& ws, ConstVecRef q, double h, RotationLagrangian rotation,
-                   double t);
+                   double t, const State* kick = nullptr);
 
 // The potential at the configuration a step of size h came from: q_{k-1}, reached from q by a
 // step of -h with the pre-momentum p_minus (velocity v_minus = M^-1 p_minus), into q_prev

@@ -43,14 +43,9 @@ struct RoundOff {
 };
 
 // --- Moser-Veselov: 2 (I v + v x I v) = h p (1 + |v|^2) --------------------------------------
+// (An isotropic body: isotropic_moser_veselov, legendre.hpp.)
 bool solve_moser_veselov(const RigidBlock& b, const Vec3& hp, Vec3& v, int& iterations) {
   iterations = 0;
-  if (b.isotropic) {  // v parallel to p: 2 J |v| / (1 + |v|^2) = h |p|, sin(angle) = h |p| / J
-    const double j = b.inertia(0, 0), x = hp.norm() / j;
-    if (!(x <= 1.0)) return false;
-    v = hp * (1.0 / (j * (1.0 + std::sqrt((1.0 - x) * (1.0 + x)))));  // tan(angle / 2) along p: one division
-    return true;
-  }
   v = 0.5 * (b.inverse_inertia * hp);
   double det = 0.0;
   RoundOff converged;
@@ -180,6 +175,11 @@ bool solve_legendre(RotationLagrangian rotation, const RigidBlock& body, double 
   Vec3 x;
   switch (rotation) {
     case RotationLagrangian::MoserVeselov:
+      if (body.isotropic) {
+        if (!isotropic_moser_veselov(body.inertia(0, 0), hp, w)) return false;
+        w *= 1.0 / w.norm();
+        return true;
+      }
       if (!solve_moser_veselov(body, hp, x, iterations)) return false;
       w = quaternion_cayley(x);
       return true;

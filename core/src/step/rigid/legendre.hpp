@@ -8,6 +8,8 @@
 #include <nonholo/model.hpp>
 #include <nonholo/rattle_options.hpp>
 
+#include <cmath>
+
 #include "model/quaternion.hpp"
 
 namespace nonholo::detail {
@@ -21,6 +23,18 @@ inline constexpr int kMaxLegendreIterations = 40;
 // non-finite p. `iterations`: Newton iterations taken (0 for the closed forms).
 bool solve_legendre(RotationLagrangian rotation, const RigidBlock& body, double h, const Vec3& p, Vec4& w,
                     int& iterations);
+
+// Moser-Veselov for an isotropic body (inertia J Id) in closed form: W turns about p by the angle
+// a with sin a = h |p| / J, and cay(v) with v = h p / (J (1 + cos a)) is W; times J (1 + cos a),
+// the quaternion u = (J + sqrt(J^2 - |h p|^2), h p) is W unnormalised (one square root, no
+// division; the drift folds |u| into the turned orientation's renormalisation). False past the
+// fold (h |p| > J) or for a non-finite h p.
+inline bool isotropic_moser_veselov(double j, const Vec3& hp, Vec4& u) {
+  const double d = j * j - hp.squaredNorm();
+  if (!(d >= 0.0)) return false;
+  u = Vec4(j + std::sqrt(d), hp.x(), hp.y(), hp.z());
+  return true;
+}
 
 // The inverse: the post-momentum p that makes a step of size h rotate by W (unit quaternion w
 // with w[0] > 0: a rotation of less than 180 degrees). For the start from two configurations.
