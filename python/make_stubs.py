@@ -35,6 +35,9 @@ def main(directory):
         stubgen.main(["--module", "nonholo._core", "--output", out, "--quiet"])
         with open(os.path.join(out, "nonholo", "_core.pyi")) as f:
             lines = f.read().splitlines()
+    # The package sets each class's __reduce_ex__ on import (nonholo/__init__.py: pickling at every
+    # protocol); it is object's method in the stub, not an attribute of the compiled module.
+    lines = [line for line in lines if not line.strip().startswith("__reduce_ex__:")]
     text = "\n".join(typed(line) for line in lines) + "\n"
     # stubgen leaves out the module's dunder attributes; nonholo/__init__.py reads these.
     text += "\n__version__: str\n__git_revision__: str\n__target_arch__: str\n"

@@ -338,6 +338,43 @@ TEST(Accuracy, TheAdviceWorks) {
   EXPECT_THAT(r.err, ::testing::Not(HasSubstr("use --dt")));
 }
 
+// Every sample's step of 2 dt failed (legendre-not-solved: h |Omega| past the fold at 2 dt, not
+// at dt): the check compared nothing. Such runs ended ok with error_estimate=0 (veselova at dt 0.6:
+// 44-72 % of the extent off); now inaccurate, exit 3, no estimate, with advice that lets the
+// check sample; in a batch too; --accuracy 0 accepts them.
+TEST(Accuracy, ACheckThatTookNoSampleIsNotOk) {
+  for (const auto& args : std::vector<std::vector<std::string>>{{"run", "veselova", "--dt", "0.6"},
+                                                                {"run", "veselova", "--dt", "0.8", "--t-end", "20"},
+                                                                {"run", "suslov", "--dt", "0.9"}}) {
+    const auto r = run_cli(args);
+    EXPECT_EQ(r.code, 3) << r.out << r.err;
+    const auto kv = summary_of(r.out);
+    EXPECT_EQ(kv.at("status"), "inaccurate") << r.out;
+    EXPECT_EQ(kv.count("error_estimate"), 0u) << r.out;  // not 0: nothing was measured
+    EXPECT_THAT(r.err, HasSubstr("the accuracy check took no sample: its step of 2 dt failed"));
+    EXPECT_THAT(r.err, HasSubstr("legendre-not-solved"));
+    EXPECT_THAT(r.err, ::testing::Not(HasSubstr("the estimate covers the samples that worked")));
+    // The advice: half the step, where the check samples (and judges).
+    const auto at = r.err.find("use --dt ");
+    ASSERT_NE(at, std::string::npos) << r.err;
+    std::istringstream in(r.err.substr(at + 9));
+    double dt = 0;
+    in >> dt;
+    auto advised = args;
+    advised[3] = std::to_string(dt);
+    const auto a = run_cli(advised);
+    EXPECT_THAT(a.err, ::testing::Not(HasSubstr("took no sample"))) << a.err;
+    EXPECT_EQ(summary_of(a.out).count("error_estimate"), 1u) << a.out;
+    auto off = args;
+    off.insert(off.end(), {"--accuracy", "0"});
+    EXPECT_EQ(run_cli(off).code, 0) << args[1];
+  }
+  const auto b = run_cli({"batch", "veselova", "--count", "3", "--dt", "0.6"});
+  EXPECT_NE(b.code, 0) << b.out;
+  EXPECT_EQ(summary_of(b.out).at("status"), "inaccurate") << b.out;
+  EXPECT_THAT(b.err, HasSubstr("the accuracy check took no sample")) << b.err;
+}
+
 TEST(Accuracy, CorrectRunsAreNotFlagged) {
   for (const auto& args : std::vector<std::vector<std::string>>{
            {"run", "sleigh"},

@@ -151,6 +151,42 @@ TEST(MpiBatch, RanksWithDifferentCommandsStopNamingTheDifference) {
   EXPECT_THAT(same.out, HasSubstr("failed=0 ranks=2"));
 }
 
+// Two ranks started in two directories with a scene file of the same name and other contents
+// (as two machines would have): the options are equal, the files are not. Before: one mixed
+// table, exit 0. Now refused naming the difference; the same contents agree.
+TEST(MpiBatch, RanksWithDifferentSceneFilesOfOneNameStop) {
+  const std::filesystem::path a = temp("scene_a"), b = temp("scene_b");
+  std::filesystem::create_directories(a);
+  std::filesystem::create_directories(b);
+  const std::string scene = slurp(NONHOLO_SOURCE_DIR "/examples/scenes/towed_pair.json");
+  std::ofstream(a / "s.json") << scene;
+  std::string other = scene;
+  other.replace(other.find("\"dt\": 0.01"), 10, "\"dt\": 0.02");
+  std::ofstream(b / "s.json") << other;
+  auto launch = [&](const std::filesystem::path& second) {
+    const std::string out = temp("out.txt"), err = temp("err.txt");
+    const std::string args = " batch s.json --count 4 --t-end 1";
+    const std::string cmd = "cd " + a.string() + " && OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 timeout 120 " +
+                            std::string(NONHOLO_MPIEXEC) + " -n 1 --oversubscribe " + NONHOLO_CLI + args + " : -n 1 -wdir " +
+                            second.string() + " " + NONHOLO_CLI + args + " > " + out + " 2> " + err;
+    const int status = std::system(cmd.c_str());
+    Launch r{WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+    std::remove(out.c_str());
+    std::remove(err.c_str());
+    return r;
+  };
+  const Launch r = launch(b);
+  EXPECT_EQ(r.code, 1) << r.out << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_THAT(r.err, HasSubstr("the ranks were not started with the same batch: rank 0 has scene file s.json of "));
+  std::ofstream(b / "s.json") << scene;  // the same bytes: one batch
+  const Launch same = launch(b);
+  EXPECT_EQ(same.code, 0) << same.err;
+  EXPECT_THAT(same.out, HasSubstr("failed=0 ranks=2"));
+  std::filesystem::remove_all(a);
+  std::filesystem::remove_all(b);
+}
+
 TEST(MpiBatch, ARankThatReturnsBeforeTheBatchStopsTheOthers) {
   // Before: rank 1 returned and rank 0 waited for it forever (here: killed after 120 s, code 124).
   const Launch bad = two_commands("", "batch sleigh --count 4 --t-end 1 --bogus");
@@ -250,8 +286,11 @@ TEST(MpiBatch, CtrlCKeepsTheFinishedRowsLikeOneProcess) {
   for (std::string line; std::getline(whole, line);) a.push_back(line);
   ASSERT_EQ(a.size(), static_cast<std::size_t>(last + 1));
   EXPECT_EQ(a[0], b[0]) << "the header";
-  for (long i = 1; i <= last; ++i)
-    if (!interrupted(b[static_cast<std::size_t>(i)])) EXPECT_EQ(a[static_cast<std::size_t>(i)], b[static_cast<std::size_t>(i)]) << "row " << i;
+  for (long i = 1; i <= last; ++i) {
+    if (!interrupted(b[static_cast<std::size_t>(i)])) {
+      EXPECT_EQ(a[static_cast<std::size_t>(i)], b[static_cast<std::size_t>(i)]) << "row " << i;
+    }
+  }
   for (const auto& f : {spread, single, out, err, pid}) std::remove(f.c_str());
 }
 

@@ -15,8 +15,10 @@ flags (--t-end -1); RunResult.line and BatchResult.line stay the tool's own line
 """
 from __future__ import annotations  # the annotations are for type checkers (py.typed, _core.pyi)
 
+import copyreg as _copyreg
 import os as _os
 import re as _re
+import stat as _stat
 import typing as _typing
 
 import numpy as _np
@@ -34,6 +36,43 @@ if _typing.TYPE_CHECKING:  # names for the annotations only, kept out of the mod
     _Integer = Union[int, "_np.integer[Any]"]
     _Assignments = Union[Mapping[str, _Real], str, Iterable[str]]  # set=: {NAME: value} or "NAME=VALUE"s
     _Ranges = Union[Mapping[str, Tuple[_Real, _Real]], str, Iterable[str]]  # vary=: {NAME: (lo, hi)} or "NAME=LO:HI"s
+
+# Pickling at every protocol. pybind11 pickles a class with __getstate__ only from protocol 2 on:
+# protocols 0 and 1 rebuild through object.__new__, which aborted the interpreter ("instance
+# allocation failed"). So: State and Status by their state at any protocol (copyreg.__newobj__,
+# then __setstate__, as protocol 2 does); RattleOptions by its constructor's keywords; the others
+# (a Model may hold Python callables, a Workspace is buffers for one model) refused with a
+# TypeError that says what to do.
+_RATTLE_KEYWORDS = ("min_pivot_ratio", "hitch", "gap_tolerance", "gap_tolerance_limit", "max_gap_iterations",
+                    "restart", "restart_tolerance", "monitor_every", "order", "composition", "rotation")
+
+
+def _rebuilt(cls: type, args: tuple, keywords: dict) -> object:
+    return cls(*args, **keywords)
+
+
+def _reduce_by_state(self: object, protocol: int) -> tuple:
+    return (getattr(_copyreg, "__newobj__"), (type(self),), getattr(self, "__getstate__")())
+
+
+def _reduce_options(self: "RattleOptions", protocol: int) -> tuple:
+    return (_rebuilt, (type(self), (self.h,), {k: getattr(self, k) for k in _RATTLE_KEYWORDS}))
+
+
+def _refuse_pickle(self: object, protocol: int) -> tuple:
+    name = type(self).__name__
+    advice = {"Model": "build it again where it is needed (a model may call Python callables)",
+              "ModelBuilder": "build the model where it is needed",
+              "Workspace": "make one for the model where it is needed: nonholo.Workspace(model)",
+              "Diagnostics": "keep its fields (energy, energy_post, residual, ...) instead"}
+    raise TypeError("cannot pickle a nonholo.%s: %s" % (name, advice.get(name, "make it again where it is needed")))
+
+
+for _class in (getattr(_core, _n) for _n in dir(_core)):
+    if isinstance(_class, type):
+        setattr(_class, "__reduce_ex__", _reduce_by_state if "__getstate__" in vars(_class) else
+                _reduce_options if _class is _core.RattleOptions else _refuse_pickle)
+del _class
 
 __version__ = _core.__version__  # CMakeLists.txt's project(VERSION); _core.__git_revision__ too
 # "portable", or the -march the library was built with (CMake's NONHOLO_ARCH): such a build's results
@@ -405,7 +444,10 @@ def _load_hdf5(path):
     try:
         f = h5py.File(path, "r")
     except OSError:  # a run killed while writing: readable as a single-writer/multiple-reader file
-        f = h5py.File(path, "r", swmr=True)
+        try:
+            f = h5py.File(path, "r", swmr=True)
+        except OSError as e:
+            raise ValueError("load(%r): not an HDF5 file h5py can open (%s)" % (str(path), e)) from e
     with f:
         kind = f.attrs.get("format")
         kind = kind.decode() if isinstance(kind, bytes) else kind
@@ -440,8 +482,9 @@ def _load_hdf5(path):
             if "batch" in f:
                 summary.update(_attributes(f["batch"]))
             return BatchResult(dict(columns=columns, messages=messages, summary=summary, line=""))
-        raise ValueError("%s: a %r HDF5 file, not a run's or batch's output (a checkpoint is resumed with "
-                         "run(resume=...), not loaded)" % (path, kind))
+        what = "an HDF5 file without nonholo's format attribute" if kind is None else "a %r HDF5 file" % kind
+        raise ValueError("%s: %s, not a run's or batch's output (a checkpoint is resumed with "
+                         "run(resume=...), not loaded)" % (path, what))
 
 
 def load(path: _Path) -> Union[RunResult, BatchResult]:
@@ -450,11 +493,23 @@ def load(path: _Path) -> Union[RunResult, BatchResult]:
     diagnostics, gap and the summary; a CSV has t, q, energy, energy_post and residual (p, gap
     None, summary {}). The numbers are the ones written, bit for bit."""
     text = _os.fspath(path)
-    if text.endswith((".h5", ".hdf5")):
-        return _load_hdf5(text)
-    if text.endswith(".csv"):
-        return _load_csv(text)
-    raise ValueError("load(%r): expected a .csv, .h5 or .hdf5 file written by nonholo" % text)
+    if not text.endswith((".h5", ".hdf5", ".csv")):
+        raise ValueError("load(%r): expected a .csv, .h5 or .hdf5 file written by nonholo" % text)
+    # Only a regular file (links followed): a FIFO or /dev/zero would block or read for ever.
+    try:
+        mode = _os.stat(text).st_mode
+    except FileNotFoundError:
+        raise FileNotFoundError("load(%r): no such file" % text) from None
+    if not _stat.S_ISREG(mode):
+        kind = ("a directory" if _stat.S_ISDIR(mode) else "a FIFO" if _stat.S_ISFIFO(mode) else
+                "a device" if _stat.S_ISCHR(mode) or _stat.S_ISBLK(mode) else "a socket" if _stat.S_ISSOCK(mode)
+                else "not a regular file")
+        raise ValueError("load(%r): %s, not a file: expected a .csv, .h5 or .hdf5 file written by nonholo" % (text, kind))
+    try:
+        return _load_hdf5(text) if text.endswith((".h5", ".hdf5")) else _load_csv(text)
+    except (KeyError, IndexError, UnicodeDecodeError) as e:  # the file is not what its name says
+        raise ValueError("load(%r): not a run's or a batch's file written by nonholo (%s: %s)"
+                         % (text, type(e).__name__, e)) from e
 
 
 def animate(result: Union[RunResult, _Path], path: _Path, **options: Any) -> Any:

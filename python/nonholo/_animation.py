@@ -21,7 +21,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from ._command import CommandParser
+from ._command import CommandParser, same_file
 
 BODY = "#1f77b4"     # planar bodies' fill
 LEAD = "#d62728"     # the lead (body 0) of a chain, and the rotating marker of rigid bodies
@@ -195,6 +195,9 @@ def animate(result: Any, path: Union[str, "os.PathLike[str]"], *, fps: int = 20,
         raise AnimationError("width: an MP4 needs an even width (H.264, yuv420p), got %d" % width)
     if trail is not None and not (isinstance(trail, (int, float, np.integer, np.floating)) and trail >= 0):
         raise AnimationError("trail: expected a number of time units >= 0, got %r" % (trail,))
+    if isinstance(result, (str, os.PathLike)) and same_file(os.fsdecode(os.fspath(result)), out):
+        raise AnimationError("%s is the input %s (the same file, through a link or another name): writing the "
+                             "animation would destroy it; write elsewhere" % (out, os.fsdecode(os.fspath(result))))
     if ext == ".mp4":
         _check_ffmpeg()
     run, scene, parameters, label = _read(result)

@@ -18,3 +18,14 @@ class CommandParser(argparse.ArgumentParser):
         self.print_usage(sys.stderr)
         sys.stderr.write("%s: %s\n" % (self.prog, message))
         sys.exit(1)
+
+
+def same_file(a: str, b: str) -> bool:
+    """Whether two paths name one file: links followed (by device and inode when both exist),
+    so that an output given through a link to its input is refused instead of destroying it."""
+    try:
+        if os.path.exists(a) and os.path.exists(b):
+            return os.path.samefile(a, b)
+    except OSError:
+        return False
+    return os.path.realpath(a) == os.path.realpath(b)

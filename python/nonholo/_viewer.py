@@ -39,7 +39,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from ._command import CommandParser
+from ._command import CommandParser, same_file
 
 MARGIN_PX = 40
 DEFAULT_MAX_FRAMES = 1000
@@ -111,6 +111,23 @@ def _finite(a: Optional[np.ndarray]) -> Optional[List[Optional[float]]]:
     if a is None:
         return None
     return [float(v) if math.isfinite(v) else None for v in np.asarray(a, dtype=float)]
+
+
+# Everything inlined from data is escaped so that no text can change the page's structure: the
+# JSON inside <script type="application/json"> holds no "<" at all (as \u003c, also ">" and "&"),
+# so no "</script", "<!--" or "<script" can end the element or switch the HTML parser's state; the
+# title's text holds no markup character. (Only "</" was escaped before: "<!--<script>" in a
+# title blanked the page.)
+_JSON_ESCAPES = {"<": "\\u003c", ">": "\\u003e", "&": "\\u0026", "\u2028": "\\u2028", "\u2029": "\\u2029"}
+
+
+def _inline_json(value: Any) -> str:
+    text = json.dumps(value, separators=(",", ":"), allow_nan=False)
+    return re.sub("[<>&\u2028\u2029]", lambda m: _JSON_ESCAPES[m.group(0)], text)
+
+
+def _html_text(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
 
 
 def _rigid_shape(scene: str, params: Dict[str, float], has_z: bool, has_xy: bool) -> str:
@@ -254,8 +271,8 @@ def build_page(result: Any, source: Optional[str] = None, max_frames: int = DEFA
             notice.replace("*/", "* /"), text.replace("</script", "<\\/script"))
     with open(os.path.join(VIEWER_DIR, "viewer.html"), encoding="utf-8") as fh:
         page = fh.read()
-    meta_json = json.dumps(meta, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
-    title_html = meta["title"].replace("&", "&amp;").replace("<", "&lt;")
+    meta_json = _inline_json(meta)
+    title_html = _html_text(meta["title"])
     fill = {"__TITLE__": title_html, "__THREE__": three_block, "__META__": meta_json, "__FRAMES__": frames_b64}
     return re.sub("__(?:TITLE|THREE|META|FRAMES)__", lambda m: fill[m.group(0)], page)
 
@@ -274,6 +291,9 @@ def view(result: Any, path: Union[str, "os.PathLike[str]"], max_frames: int = DE
         except (OSError, ValueError, KeyError) as e:
             text = str(e)
             raise ViewError(text if source in text else "%s: %s" % (source, text)) from None
+    if source is not None and same_file(source, os.fspath(path)):
+        raise ViewError("%s is the input %s (the same file, through a link or another name): writing the page "
+                        "would destroy it; write elsewhere" % (os.fspath(path), source))
     page = build_page(result, source, max_frames=max_frames, max_bodies=max_bodies, title=title)
     with open(os.fspath(path), "w", encoding="utf-8") as fh:
         fh.write(page)

@@ -5,6 +5,7 @@
 #include <nonholo/scenarios/batch.hpp>
 #include <nonholo/scenarios/interrupt.hpp>
 #include <nonholo/scenarios/run.hpp>
+#include <nonholo/scenarios/scene_file.hpp>
 #include <nonholo/scenarios/work_precision.hpp>
 
 #include <nonholo/build_config.hpp>
@@ -15,7 +16,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <fstream>
 #include <ostream>
 #include <sstream>
 #include <stdexcept>
@@ -246,9 +249,23 @@ std::string canonical_options(const CLI::App* cmd) {
   return kept;
 }
 
+// A scene file's bytes, as one line of the command the ranks of `mpirun nonholo batch` agree on:
+// two files of one name with other contents made one mixed table, the options being equal.
+std::string scene_file_line(const std::string& scene) {
+  if (!is_scene_file(scene)) return "";
+  std::ifstream in(scene, std::ios::binary);
+  if (!in) return "";  // the scene's reader says why
+  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a, the same on every rank
+  std::size_t size = 0;
+  for (char c; in.get(c); ++size) h = (h ^ static_cast<unsigned char>(c)) * 0x100000001b3ull;
+  std::ostringstream os;
+  os << "scene file " << scene << " of " << size << " bytes, FNV-1a " << std::hex << h << "\n";
+  return os.str();
+}
+
 void finish_batch_command(const CLI::App* cmd, RunOptions& batch_run, BatchConfig& batch) {
   finish_run_options(cmd, batch_run);
-  batch.command = canonical_options(cmd);
+  batch.command = canonical_options(cmd) + scene_file_line(batch_run.config.scene);
   if (cmd->count("--threads") && batch.threads < 1)
     throw std::invalid_argument("--threads " + std::to_string(batch.threads) + ": must be at least 1");
   check_batch_size(cmd, batch);
@@ -290,8 +307,9 @@ void list_scenes(std::ostream& out) {
 
 }  // namespace
 
-int run_command_line(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
-                     BatchProcesses* processes) {
+namespace {
+
+int dispatch(int argc, const char* const* argv, std::ostream& out, std::ostream& err, BatchProcesses* processes) {
   CLI::App app{"nonholo: momentum- and energy-preserving integration of nonholonomic systems"};
   app.set_version_flag("--version", std::string("nonholo ") + kVersion + " (git " + kGitRevision + ", " + kTargetArch + ")");
   app.require_subcommand(1);
@@ -386,6 +404,20 @@ int run_command_line(int argc, const char* const* argv, std::ostream& out, std::
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+// What the command printed must reach its reader: standard output closed, full (/dev/full) or
+// cut is an error with a message, not exit 0 with nothing said.
+int run_command_line(int argc, const char* const* argv, std::ostream& out, std::ostream& err,
+                     BatchProcesses* processes) {
+  const int code = dispatch(argc, argv, out, err, processes);
+  out.flush();
+  if (out) return code;
+  err << "nonholo: could not write to standard output (closed, full or cut): what the command printed there "
+         "(the summary, a table, a CSV sent to -) is lost; the output files are as written\n";
+  return code == 0 ? 1 : code;
 }
 
 RunConfig parse_run_arguments(const std::vector<std::string>& args) {

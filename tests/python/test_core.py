@@ -170,6 +170,47 @@ def test_a_pickled_state_steps_on_as_the_original():
         nonholo.State.__new__(nonholo.State).__setstate__((2,))
 
 
+PICKLE_EVERY_PROTOCOL = """
+import pickle, sys
+import numpy as np
+import nonholo
+b = nonholo.ModelBuilder()
+b.add_planar_body(["x", "y", "theta"], 1.0, 0.5)
+b.add_knife_edge(0)
+model = b.build()
+ws = nonholo.Workspace(model)
+s = nonholo.start_from_velocity(model, ws, 0.0, [0.0, 0.0, 0.3], [1.0, 0.0, 0.5])
+options = nonholo.RattleOptions(0.02, order=6, composition="blanes-moan6", restart="7", hitch="oneform",
+                                gap_tolerance=3e-13, rotation="exponential")
+for protocol in range(pickle.HIGHEST_PROTOCOL + 1):
+    back = pickle.loads(pickle.dumps(s, protocol))
+    assert all(np.array_equal(getattr(s, k).view(np.uint64), getattr(back, k).view(np.uint64))
+               for k in ("q", "p", "lam", "force")), protocol
+    assert (back.t, back.steps, repr(back)) == (s.t, s.steps, repr(s))
+    o = pickle.loads(pickle.dumps(options, protocol))
+    assert all(getattr(o, k) == getattr(options, k) for k in ("h",) + nonholo._RATTLE_KEYWORDS), protocol
+    assert pickle.loads(pickle.dumps(nonholo.Status.GapNotConverged, protocol)) == nonholo.Status.GapNotConverged
+    for thing, words in ((ws, "nonholo.Workspace(model)"), (model, "build it again"), (b, "build the model"),
+                         (nonholo.diagnose(model, ws, s, 0.02), "keep its fields")):
+        try:
+            pickle.dumps(thing, protocol)
+            sys.exit("pickled a %s at protocol %d" % (type(thing).__name__, protocol))
+        except TypeError as e:
+            assert "cannot pickle a nonholo.%s" % type(thing).__name__ in str(e) and words in str(e), str(e)
+print("every protocol:", pickle.HIGHEST_PROTOCOL + 1)
+"""
+
+
+def test_pickling_works_or_refuses_at_every_protocol():
+    # Protocols 0 and 1 aborted the interpreter (rc 134) on a State or RattleOptions: in a child
+    # process, so that an abort fails the test instead of ending the run.
+    import subprocess
+    import sys
+    done = subprocess.run([sys.executable, "-c", PICKLE_EVERY_PROTOCOL], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "every protocol: 6" in done.stdout
+
+
 def test_status_and_options():
     assert nonholo.Status.Ok.text == "ok"
     assert nonholo.Status.CallbackFailed.text == "callback-failed"

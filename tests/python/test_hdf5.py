@@ -74,11 +74,22 @@ def test_a_failed_run_leaves_a_readable_file_with_its_status(tmp_path):
         assert "step 1 from t = 0 failed" in text(f["summary"].attrs["message"])
 
 
+def started(proc, path, timeout=120.0):
+    """Waits (polling, generous) until the run `proc` has created its output `path`: its signal
+    handlers are in place and it is in its loop. Fails if the run ended first."""
+    deadline = time.monotonic() + timeout
+    while not os.path.exists(path):
+        assert proc.poll() is None, "the run ended before it wrote %s" % path
+        assert time.monotonic() < deadline, "no %s after %g s" % (path, timeout)
+        time.sleep(0.01)
+
+
 def test_ctrl_c_leaves_a_readable_file(tmp_path):
     path = tmp_path / "long.h5"
     proc = subprocess.Popen([CLI, "run", "sleigh_chain", "--set", "bodies=2000", "--t-end", "10000", "--every", "50",
                              "--out", str(path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.0)
+    started(proc, path)
+    time.sleep(0.5)  # a moment into the run (the test's outcome does not depend on which)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
@@ -157,6 +168,7 @@ def test_a_killed_run_leaves_a_readable_file_of_the_runs_frames(tmp_path):
         path = tmp_path / ("killed%d.h5" % i)
         child = subprocess.Popen([CLI, *args, "--t-end", "1e6", "--out", str(path)],
                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        started(child, path)  # the file exists (a loaded machine may take longer than `delay` to get there)
         time.sleep(delay)
         child.send_signal(signal.SIGKILL)
         child.wait()
@@ -226,6 +238,42 @@ def test_an_xdmf_sidecar_shows_the_bodies_in_paraview(tmp_path):
             assert source.text == "run.h5:/q" and source.get("Dimensions") == "6 %d" % len(names)
     assert cli("run", "suslov", "--t-end", "0.1", "--out", str(tmp_path / "top.h5")).returncode == 0
     assert not (tmp_path / "top.xdmf").exists()
+
+
+@pytest.mark.parametrize("name", ["a&b", "x<y>z", "h<!--<script>--&", "a--b-", "]]>", "quote\"and'", "ünï©ødé", "t&amp;"])
+def test_any_file_name_leaves_the_xdmf_well_formed(tmp_path, name):
+    # The name is XML-escaped where it is data (&, <, >) and kept out of "--" in the comment: the
+    # sidecar parses (a real XML parser) and names the file exactly.
+    import xml.etree.ElementTree as ET
+    out = tmp_path / (name + ".h5")
+    assert cli("run", "sleigh_chain", "--set", "bodies=3", "--t-end", "0.2", "--out", str(out)).returncode == 0
+    root = ET.parse(tmp_path / (name + ".xdmf")).getroot()
+    sources = [d for d in root.iter("DataItem") if d.get("Format") == "HDF"]
+    assert sources and all(d.text == name + ".h5:/q" for d in sources)
+
+
+def test_random_file_names_leave_the_xdmf_well_formed(tmp_path):
+    # The property on random names of dangerous pieces (two seeds' worth, 20 names).
+    import xml.etree.ElementTree as ET
+    random = np.random.default_rng(37)
+    pieces = ["&", "<", ">", "-", "--", "]]>", "<!--", "-->", "\"", "'", "&amp;", "?>", "<?", "x", "\u00e9", " "]
+    for k in range(20):
+        name = "%d%s" % (k, "".join(random.choice(pieces, size=random.integers(1, 10))))
+        out = tmp_path / (name + ".h5")
+        assert cli("run", "sleigh_chain", "--set", "bodies=2", "--t-end", "0.05", "--out", str(out)).returncode == 0
+        root = ET.parse(tmp_path / (name + ".xdmf")).getroot()
+        assert all(d.text == name + ".h5:/q" for d in root.iter("DataItem") if d.get("Format") == "HDF"), name
+
+
+def test_a_file_name_xml_cannot_hold_gets_no_sidecar(tmp_path):
+    # A control character or invalid UTF-8 cannot be written in XML 1.0, even as an entity: the
+    # run and its HDF5 file are as any other, without the sidecar.
+    for name in ("ctl\x01", os.fsdecode(b"bad\xff")):
+        out = tmp_path / (name + ".h5")
+        done = subprocess.run([CLI, "run", "sleigh_chain", "--set", "bodies=3", "--t-end", "0.2", "--out", str(out)],
+                              capture_output=True)  # bytes: the name is echoed
+        assert done.returncode == 0, done.stderr
+        assert out.exists() and not (tmp_path / (name + ".xdmf")).exists()
 
 
 

@@ -1,6 +1,8 @@
 """Results that last (README "Long runs"): nonholo.load() gives back what run() and batch()
 returned, bit for bit, from CSV and HDF5; run(checkpoint=...) and run(resume=...) continue a run
 with the frames of the longer run."""
+import os
+
 import numpy as np
 import pytest
 
@@ -56,6 +58,29 @@ def test_load_refuses_what_it_cannot_read(tmp_path):
     nonholo.run("sleigh", t_end=0.1, checkpoint=tmp_path / "ck.h5")
     with pytest.raises(ValueError, match="not a run's or batch's output"):
         nonholo.load(tmp_path / "ck.h5")
+
+
+
+def test_load_refuses_what_is_not_a_file_and_names_the_file(tmp_path):
+    # Nothing that blocks or reads for ever (a FIFO, a link to /dev/zero), and no raw library
+    # error: each refusal names the file and what it is.
+    os.mkfifo(tmp_path / "fifo.csv")
+    os.symlink("/dev/zero", tmp_path / "zero.h5")
+    (tmp_path / "dir.csv").mkdir()
+    (tmp_path / "bytes.csv").write_bytes(b"t,x\n\xff\xfe,1\n")
+    (tmp_path / "garbage.h5").write_bytes(b"not HDF5 at all")
+    h5py.File(tmp_path / "plain.h5", "w").close()
+    cases = {"fifo.csv": "a FIFO, not a file", "zero.h5": "a device, not a file", "dir.csv": "a directory, not a file",
+             "bytes.csv": "not a run's or a batch's file written by nonholo (UnicodeDecodeError",
+             "garbage.h5": "not an HDF5 file h5py can open",
+             "plain.h5": "an HDF5 file without nonholo's format attribute, not a run's or batch's output"}
+    for name, words in cases.items():
+        path = tmp_path / name
+        with pytest.raises(ValueError) as error:
+            nonholo.load(path)
+        assert str(path) in str(error.value) and words in str(error.value), str(error.value)
+    with pytest.raises(FileNotFoundError, match=r"missing.csv'\): no such file"):
+        nonholo.load(tmp_path / "missing.csv")
 
 
 def test_a_run_resumed_from_python_goes_on_bit_for_bit(tmp_path):

@@ -1,6 +1,7 @@
 """nonholo.run / batch / scenes against the command-line tool (NONHOLO_CLI, set by CTest): the
 same numbers to the last digit, the same messages, the same failures."""
 import os
+import pathlib
 import signal
 import threading
 
@@ -206,6 +207,117 @@ def test_ctrl_c_raises_keyboard_interrupt_with_the_frames_so_far():
     assert "interrupted by the caller" in r.summary["message"]
     assert 0 < r.summary["steps"] < 10**6
     assert r.t.shape[0] == r.q.shape[0] >= 1
+
+
+def test_ctrl_c_stops_an_adaptive_run_inside_an_output_interval_and_it_resumes(tmp_path):
+    # Each output interval holds a few thousand adaptive pairs (seconds here): Ctrl-C was read
+    # only between intervals (a run with dt = t_end = 1e300 never stopped); now between pairs, so
+    # the run stops during step 2, its state at the last pair. Its checkpoint resumes to the
+    # uninterrupted run's file, bit for bit. No wall-clock wait: SIGINT once step 1's checkpoint
+    # is on disk.
+    import re
+    import subprocess
+    import time
+    from support import CLI
+    args = ["run", "sleigh_chain", "--set", "bodies=300", "--tol", "1e-4", "--dt", "50", "--t-end", "100"]
+    assert cli(*args, "--out", str(tmp_path / "whole.csv")).returncode == 0
+    out, checkpoint = tmp_path / "cut.csv", tmp_path / "ck.h5"
+    proc = subprocess.Popen([CLI, *args, "--out", str(out), "--checkpoint", str(checkpoint), "--checkpoint-every", "1"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not checkpoint.exists():
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stdout + stderr
+    assert re.search(r"interrupted \(SIGINT\) during step 2 at t = [5-9]\d\.", stderr), stderr
+    assert "status=interrupted" in stdout
+    done = cli("run", "--resume", str(checkpoint))
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes() == (tmp_path / "whole.csv").read_bytes()
+
+
+def test_a_standard_output_that_cannot_be_written_is_an_error(tmp_path):
+    # stdout on /dev/full or closed: run, batch and list exited 0 with nothing said.
+    import subprocess
+    from support import CLI
+    for args in (["list"], ["run", "sleigh", "--t-end", "0.5"], ["batch", "sleigh", "--count", "2", "--t-end", "0.5"]):
+        with open("/dev/full", "w") as full:
+            done = subprocess.run([CLI, *args], stdout=full, stderr=subprocess.PIPE, text=True)
+        assert done.returncode == 1, (args, done.stderr)
+        assert "could not write to standard output (closed, full or cut)" in done.stderr, done.stderr
+        closed = subprocess.run([CLI, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                preexec_fn=lambda: os.close(1))
+        assert closed.returncode == 1 and "could not write to standard output" in closed.stderr, (args, closed.stderr)
+
+
+def test_sighup_ends_a_run_as_sigterm_does_with_whole_rows(tmp_path):
+    # The terminal closing (SIGHUP) killed the run mid-row; now it stops between steps as on
+    # SIGTERM: status interrupted, exit 130, every row of the CSV whole.
+    import subprocess
+    import time
+    from support import CLI
+    out = tmp_path / "hup.csv"
+    # SIGHUP as a terminal sends it: not ignored (under nohup, as CI may run, the child would
+    # inherit SIG_IGN, which the tool keeps)
+    proc = subprocess.Popen([CLI, "run", "sleigh_chain", "--set", "bodies=200", "--t-end", "1e6", "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 120
+        while not (out.exists() and out.stat().st_size > 100000):  # rows are on disk: the run is in its loop
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGHUP)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, stdout + stderr
+    assert "interrupted (SIGHUP)" in stderr and "status=interrupted" in stdout
+    header, rows = read_csv(out)
+    assert rows and all(len(r) == len(header) for r in rows)
+    assert out.read_text().endswith("\n")
+
+
+def test_outputs_that_would_overwrite_each_other_or_an_input_are_refused(tmp_path):
+    # Compared as files, not as names: links (soft and hard) followed. Before: --out through a link
+    # to the scene file overwrote it; --out b.h5 --states b.h5 lost the table.
+    import shutil
+    scene = tmp_path / "s.json"
+    shutil.copy(pathlib.Path(__file__).parents[2] / "examples" / "scenes" / "towed_pair.json", scene)
+    original = scene.read_bytes()
+    os.symlink(scene, tmp_path / "soft.csv")
+    os.link(scene, tmp_path / "hard.csv")
+    (tmp_path / "b.h5").write_bytes(b"someone's table")
+    cases = [
+        (["run", str(scene), "--out", str(tmp_path / "soft.csv")], "is the scene file"),
+        (["run", str(scene), "--out", str(tmp_path / "hard.csv")], "is the scene file"),
+        (["run", "sleigh", "--out", str(tmp_path / "x.h5"), "--checkpoint", str(tmp_path / "." / "x.h5")],
+         "are the same file"),
+        (["batch", "sleigh", "--count", "2", "--out", str(tmp_path / "b.h5"), "--states", str(tmp_path / "b.h5")],
+         "--out %s and --states %s are the same file" % (tmp_path / "b.h5", tmp_path / "b.h5")),
+        (["batch", str(scene), "--count", "2", "--out", str(tmp_path / "soft.csv")], "is the scene file"),
+    ]
+    for args, words in cases:
+        done = cli(*args)
+        assert done.returncode == 1 and words in done.stderr, (args, done.stderr)
+    assert scene.read_bytes() == original and (tmp_path / "b.h5").read_bytes() == b"someone's table"
+    # nonholo view writing its page over its own input, through a link
+    assert cli("run", "sleigh", "--t-end", "0.5", "--out", str(tmp_path / "in.h5")).returncode == 0
+    before = (tmp_path / "in.h5").read_bytes()
+    os.symlink(tmp_path / "in.h5", tmp_path / "page.html")
+    done = cli("view", str(tmp_path / "in.h5"), "-o", str(tmp_path / "page.html"))
+    assert done.returncode == 1 and "is the input" in done.stderr, done.stderr
+    assert (tmp_path / "in.h5").read_bytes() == before
+
+
+def test_an_adaptive_interval_that_could_not_end_is_refused():
+    # dt = t_end = 1e300 at --tol 1e-6: 1e303 pairs at the step the tolerance asks for. It ran for
+    # ever; now the first pair shows it (the fixed-step runs refuse t_end / dt above 1e12 up front).
+    done = cli("run", "sleigh", "--tol", "1e-6", "--dt", "1e300", "--t-end", "1e300")
+    assert done.returncode == 2
+    assert "step-size-too-small" in done.stderr and "more than the 1e+12 a run may take: raise --tol" in done.stderr
 
 
 def test_one_version_everywhere(tmp_path):

@@ -196,6 +196,53 @@ def project(point, centres, r, width, height):
     return (x + 1) / 2 * width, (1 - y) / 2 * height
 
 
+# Texts that would change the page's structure if inlined as they are: "<!--<script>" switches the
+# HTML parser into a state where "</script>" no longer ends the data block (the whole page blanked
+# while only "</" was escaped), the others end elements or open new ones.
+HOSTILE = ["<!--<script>", "</script><script>document.body.dataset.injected = 1</script>",
+           "<img src=x onerror=\"document.body.dataset.injected = 1\">", "--><!--", "]]>", "&amp;&lt;",
+           "\u2028\u2029", "\"'`${1}"]
+
+
+def test_hostile_text_cannot_change_the_page(tmp_path):
+    # From a title, a scene file's name and description (they reach the summary's scene and
+    # command): the page runs (ready, no error, nothing injected) and shows each text as it is.
+    scene = json.loads((pathlib.Path(__file__).parents[2] / "examples" / "scenes" / "towed_pair.json").read_text())
+    scene["description"] = " ".join(HOSTILE)
+    path = tmp_path / "x<!--<script>&\"'.json"  # no "/" in a file's name
+    path.write_text(json.dumps(scene))
+    data = run_to(tmp_path, str(path), "--t-end", "1", "--every", "10")
+    title = "".join(HOSTILE)
+    page = view(data, tmp_path / "hostile.html", "--title", title)
+    dom = browser(page, "t=0.5&paused=1")
+    attrs = assert_no_errors(dom)
+    assert "injected" not in attrs
+    heading = re.search(r'<h2 id="heading">(.*?)</h2>', dom, re.S).group(1)
+    assert html.unescape(heading) == title
+    info = html.unescape(re.search(r'<div id="info"[^>]*>(.*?)</div>', dom, re.S).group(1))
+    assert info.startswith(str(path) + ", planar"), info
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_no_inlined_text_holds_markup(tmp_path, seed):
+    # The property behind it, on random texts of dangerous pieces: the page's data block holds no
+    # "<" at all (nothing can end it or change the parser's state) and reads back as the data; the
+    # title holds no markup character.
+    from nonholo import _viewer
+    result = nonholo.load(run_to(tmp_path, "sleigh", "--t-end", "0.5"))
+    random = np.random.default_rng(seed)
+    pieces = HOSTILE + ["<", ">", "&", "/", "!", "-", "<\\/", "\\", "\"", "x", "\u00e9", "\U0001F600"]
+    for _ in range(50):
+        title = "".join(random.choice(pieces, size=random.integers(1, 12)))
+        page = _viewer.build_page(result, title=title)
+        block = re.search(r'<script type="application/json" id="meta">(.*?)</script>', page, re.S).group(1)
+        assert "<" not in block
+        meta = json.loads(block)
+        assert meta["title"] == title
+        head = re.search(r"<title>(.*?)</title>", page, re.S).group(1)
+        assert not set(head) & set("<>\"") and html.unescape(head) == title
+
+
 def test_a_csv_file_plays_too(tmp_path):
     csv = tmp_path / "sleigh.csv"
     assert cli("run", "sleigh", "--t-end", "2", "--out", str(csv)).returncode == 0

@@ -4,6 +4,7 @@
 #include <nonholo/scenarios/batch.hpp>
 
 #include <nonholo/scenarios/interrupt.hpp>
+#include <nonholo/scenarios/scene_file.hpp>
 
 #include <nonholo/batch.hpp>
 #include <nonholo/sparse/big_buffer.hpp>
@@ -24,6 +25,7 @@
 #include "batch/aggregate.hpp"
 #include "output/batch_row.hpp"
 #include "output/batch_table.hpp"
+#include "output/file_identity.hpp"
 #include "output/hdf5_output.hpp"
 #include "run/run_internal.hpp"
 #include "scenes/random.hpp"
@@ -150,6 +152,9 @@ void BatchRun::check_options() {
                                   "parameters, or run one batch per size");
   if (!config_.out.empty() && !is_hdf5_path(config_.out) && !is_csv_path(config_.out))
     throw std::invalid_argument("--out " + config_.out + ": name the file .csv (text) or .h5 / .hdf5 (HDF5)");
+  // `--out b.h5 --states b.h5` wrote the states over the table (file_identity.hpp).
+  refuse_shared_files({{"--out", config_.out}, {"--states", config_.states}},
+                      {{"the scene file", is_scene_file(config_.run.scene) ? config_.run.scene : ""}});
   start_ = std::chrono::steady_clock::now();
   if (config_.count < 1) throw std::invalid_argument("--count " + std::to_string(config_.count) + ": must be at least 1");
   if (config_.threads < 0)

@@ -9,7 +9,9 @@
 
 namespace nonholo::scenarios {
 
-// The XML, or "" when the coordinates have no centres to show. `h5_name`: the HDF5 file as the
+// The XML, or "" when the coordinates have no centres to show or XML 1.0 cannot hold `h5_name`
+// (a control character, invalid UTF-8). The name is escaped (&, <, > as entities; no "--" in the
+// comment that mentions it), so no file name changes the document's structure. `h5_name`: the HDF5 file as the
 // sidecar refers to it (its name, the two side by side); `times`: /t; at most `max_frames`
 // frames are listed (every k-th, the last always), ParaView's time steps.
 std::string xdmf_for(const std::string& h5_name, const std::vector<std::string>& coordinates,

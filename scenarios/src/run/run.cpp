@@ -12,9 +12,11 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "output/checkpoint/checkpoint_file.hpp"
 #include "output/checkpoint/run_config_archive.hpp"
+#include "output/file_identity.hpp"
 #include "output/hdf5_output.hpp"
 #include "run/run_internal.hpp"
 
@@ -22,7 +24,7 @@ namespace nonholo::scenarios {
 namespace {
 
 // A run takes at most this many steps (prepare_run).
-constexpr double kMaxSteps = 1e12;
+constexpr double kMaxSteps = kMaxRunSteps;
 
 // The accuracy check samples a pair of steps at least this often (nonholo/accuracy.hpp): about
 // 2/64 = 3 % of a run's cost once the samples agree (a shadow step of 2h and a factorisation).
@@ -92,6 +94,13 @@ void check_outputs(const RunConfig& config, PreparedRun& r) {
                                 ": name the file .csv (text) or .h5 / .hdf5 (HDF5), or give - for CSV on standard output");
   if (!config.checkpoint_path.empty() && out == "-")
     throw std::invalid_argument("--checkpoint with --out -: a resumed run cannot continue standard output; write to a file");
+  // Two outputs in one file, or an output over an input: refused by file, not by name (a link to
+  // the scene file given as --out overwrote it). A resumed run keeps its checkpoint up to date.
+  std::vector<NamedPath> inputs{{"the scene file", is_scene_file(config.scene) ? config.scene : ""}};
+  if (!config.resume_path.empty() &&
+      !(!config.checkpoint_path.empty() && same_file(config.resume_path, config.checkpoint_path)))
+    inputs.push_back({"the resumed checkpoint", config.resume_path});
+  refuse_shared_files({{"--out", out}, {"--checkpoint", config.checkpoint_path}}, inputs);
   if (!config.checkpoint_path.empty() && config.method.rfind("arkode", 0) == 0)
     throw std::invalid_argument("--checkpoint: " + config.method +
                                 ": ARKODE keeps its step-size controller's history inside SUNDIALS, which cannot save "

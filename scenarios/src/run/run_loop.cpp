@@ -157,10 +157,12 @@ void RunLoop::set_up() {
     throw std::invalid_argument(config_.scene + ": " + e.what());
   }
   team_probe_.emplace(runner_->threads(), [this](int team) { runner_->set_team(team); });
+  runner_->set_stop([this] { return stop_signalled(); });
   if (config_.error_estimate) {
     MethodChoice companion = run_.companion.choice;
     companion.threads = threads.threads;
     companion_ = make_runner(*setup_, companion, phase);
+    companion_->set_stop([this] { return stop_signalled(); });
   }
   // The runners have made their starts from q0 and v0: nothing reads them again (a million-body
   // chain's are 48 MB).
@@ -317,17 +319,26 @@ void RunLoop::loop() {
   loop_s_ = loop_.seconds + seconds_since(loop_start_) - output_s_ - companion_s_;
 }
 
+bool RunLoop::stop_signalled() const {
+  return interrupt_requested() || (config_.sink && config_.sink->stop_requested()) ||
+         (config_.stop && config_.stop->load(std::memory_order_relaxed));
+}
+
 bool RunLoop::stop_requested(long k) {
-  const bool ctrl_c = interrupt_requested();
-  if (!ctrl_c && !(config_.sink && config_.sink->stop_requested()) &&
-      !(config_.stop && config_.stop->load(std::memory_order_relaxed)))
-    return false;
-  summary_.status = Status::Interrupted;
-  summary_.message = (ctrl_c ? std::string("interrupted (") + interrupt_name() + ")"
-                             : std::string("interrupted by the caller")) +
-                     " after step " + std::to_string(k - 1) + " at t = " + std::to_string(runner_->t()) +
-                     "; the output holds every row up to there";
+  if (!stop_signalled()) return false;
+  interrupted(k, false);
   return true;
+}
+
+// Status::Interrupted and its message: after step k - 1, or during step k (an adaptive output
+// interval stopped between its pairs: the state is at the last finished pair).
+void RunLoop::interrupted(long k, bool during) {
+  summary_.status = Status::Interrupted;
+  summary_.message = (interrupt_requested() ? std::string("interrupted (") + interrupt_name() + ")"
+                                            : std::string("interrupted by the caller")) +
+                     (during ? " during step " + std::to_string(k) : " after step " + std::to_string(k - 1)) +
+                     " at t = " + std::to_string(runner_->t()) + "; the output holds every row up to step " +
+                     std::to_string(k - 1);
 }
 
 bool RunLoop::watches_fail(long k) {
@@ -344,6 +355,10 @@ bool RunLoop::advance(long k) {
   const bool shadow = check && check->due();  // this step also runs the check's step of 2h
   const Status status = runner_->advance(loop_.t0 + static_cast<double>(k) * run_.dt);
   if (status == Status::Ok) team_probe_->after_step(!shadow);
+  if (status == Status::Interrupted) {  // between the pairs of an adaptive interval
+    interrupted(k, true);
+    return false;
+  }
   if (status != Status::Ok) {
     summary_.status = status;
     std::ostringstream os;
@@ -423,7 +438,8 @@ void RunLoop::companion_step(long k, bool output) {
   const auto companion_start = Clock::now();
   Status cs = companion_->advance(loop_.t0 + (static_cast<double>(k) - 0.5) * run_.dt);
   if (cs == Status::Ok) cs = companion_->advance(loop_.t0 + static_cast<double>(k) * run_.dt);
-  if (cs != Status::Ok) {
+  if (cs == Status::Interrupted) {  // a stop request: the loop stops before its next step
+  } else if (cs != Status::Ok) {
     loop_.difference = std::numeric_limits<double>::quiet_NaN();
     loop_.companion_failure = "the companion trajectory of --error-estimate failed at t = " +
                               std::to_string(companion_->t()) + ": " + companion_->message();
@@ -495,7 +511,8 @@ void RunLoop::close_outputs() {
   if (const DoublingEstimate* w = summary.steps > 0 ? runner_->accuracy() : nullptr) {  // no step: nothing to judge
     summary.error_estimate = w->estimate();
     summary.extent = w->extent();
-    if (w->failed_samples() > 0 && summary.status == Status::Ok)  // a failed run says it all
+    // (a check with no sample at all is judged in judge_accuracy: not ok)
+    if (w->failed_samples() > 0 && w->samples() > 0 && summary.status == Status::Ok)  // a failed run says it all
       add_warning(summary, "the accuracy check's step of 2 dt failed " + std::to_string(w->failed_samples()) +
                                " times (first at " + w->first_failure() +
                                "): dt is within a factor 2 of what the method can take here; the estimate covers "

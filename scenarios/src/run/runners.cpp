@@ -57,7 +57,17 @@ class ReflectionRunner final : public Runner {
   Status advance(double t_next) override {
     if (stepper_) {  // pairs of adaptive steps, the last landing on t_next
       Status status = Status::Ok;
-      while (status == Status::Ok && state_.t < t_next) status = stepper_->step(model_, ws_, state_, t_next);
+      while (status == Status::Ok && state_.t < t_next) {
+        if (stop_ && stop_()) return Status::Interrupted;  // an interval may hold any number of pairs
+        if ((status = stepper_->step(model_, ws_, state_, t_next)) != Status::Ok) break;
+        const double pairs = (t_next - state_.t) / (2.0 * stepper_->last_step());
+        if (pairs > kMaxRunSteps)
+          return ws_.fail(Status::StepSizeTooSmall,
+                          "at the step size the tolerance asks for (h = %.3g at t = %.17g), reaching t = %.17g "
+                          "would take about %.3g pairs of steps, more than the %.0e a run may take: raise --tol, "
+                          "or shorten --t-end or --dt (the output interval)",
+                          stepper_->last_step(), state_.t, t_next, pairs, kMaxRunSteps);
+      }
       return status;
     }
     if (!watch_) return step(model_, ws_, state_, options_);

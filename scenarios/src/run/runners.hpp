@@ -68,7 +68,17 @@ class Runner {
   // or bytes of another run.
   virtual void save(OutArchive& a) const = 0;
   virtual void load(InArchive& a) = 0;
+  // A stop request (Ctrl-C, SIGTERM, the caller), asked between the internal steps of an output
+  // interval where a method takes many (adaptive pairs): advance() then returns
+  // Status::Interrupted with the state at the last finished one.
+  void set_stop(std::function<bool()> stop) { stop_ = std::move(stop); }
+
+ protected:
+  std::function<bool()> stop_;
 };
+
+// The most steps (adaptive: pairs) a run may take, as the fixed-step runs' t_end / dt.
+inline constexpr double kMaxRunSteps = 1e12;
 
 struct MethodChoice {
   std::string method = "reflection";  // or rk4, arkode-dp5, arkode-verner, arkode-fehlberg8

@@ -1,21 +1,21 @@
 #pragma once
 /// @file
-/// Ctrl-C during `nonholo run` / `batch`: the handler only sets a flag; the step loops check it
+/// Ctrl-C (or SIGTERM, SIGHUP) during `nonholo run` / `batch`: the handler only sets a flag; the step loops check it
 /// between steps, finish the CSV row they are on, and end with status=interrupted, so the
 /// output stays valid and the summary is printed. Installed by the command-line tool only
 /// (InterruptScope); a library caller's own SIGINT handling is left alone.
 namespace nonholo::scenarios {
 
-/// Whether SIGINT or SIGTERM arrived in an InterruptScope, or request_interrupt() was called.
+/// Whether SIGINT, SIGTERM or SIGHUP arrived in an InterruptScope, or request_interrupt() was called.
 bool interrupt_requested();
-/// "SIGINT" (Ctrl-C) or "SIGTERM" (mpirun's, kill's): which one asked.
+/// "SIGINT" (Ctrl-C), "SIGTERM" (mpirun's, kill's) or "SIGHUP" (the terminal closed): which one asked.
 const char* interrupt_name();
 /// Asks the step loops to stop, as Ctrl-C does (for tests and for a caller with its own handler).
 void request_interrupt();
 
-/// SIGINT and SIGTERM set the flag while in scope (mpirun turns Ctrl-C into SIGTERM for its
-/// ranks, and a SIGKILL a second later unless it is told to wait: docs/guide/mpi.md); the
-/// previous handlers and a clear flag come back after.
+/// SIGINT, SIGTERM and SIGHUP set the flag while in scope (mpirun turns Ctrl-C into SIGTERM for
+/// its ranks, and a SIGKILL a second later unless it is told to wait: docs/guide/mpi.md; SIGHUP
+/// stays ignored where it was, under nohup); the previous handlers and a clear flag come back after.
 class InterruptScope {
  public:
   InterruptScope();   ///< installs the handlers and clears the flag
@@ -26,6 +26,7 @@ class InterruptScope {
  private:
   void (*previous_)(int);
   void (*previous_term_)(int);
+  void (*previous_hup_)(int);
 };
 
 }  // namespace nonholo::scenarios
