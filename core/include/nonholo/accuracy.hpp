@@ -71,15 +71,23 @@ class DoublingEstimate {
   DoublingEstimate(Eigen::Index nq, int order, int every);
 
   /// Before the run's step: whether the shadow's step of 2h should start now (then call
-  /// include() with the configuration, and started() or failed()). Inline: it runs every step.
+  /// include() with the configuration, and started(), started_single() or failed()). Inline: it
+  /// runs every step.
   bool due() const { return pending_at_ < 0 && step_ >= next_at_; }
   bool pending() const { return pending_at_ >= 0; }  ///< a shadow's pair under way
   void include(ConstVecRef q);  ///< into the extent
   /// The shadow's step of 2h succeeded: the pair ends after the run's next two steps.
   void started() { pending_at_ = step_ + 2; }
   /// The shadow's step of 2h from time t failed with `status` (its name) and `message`: counted,
-  /// the first one kept (first_failure()), and the next sample tried `every` steps later.
+  /// the first one kept (first_failure()), and the next sample tried `every` steps later, unless
+  /// a retry starts (started_single()).
   void failed(double t, const char* status, const char* message);
+  /// After failed(): the shadow took two steps of h/2 instead, and the sample ends after the run's
+  /// next step (one step of h against two of h/2: the difference is (1 - 2^-p) local errors).
+  void started_single() {
+    pending_at_ = step_ + 1;
+    single_ = true;
+  }
   /// After the run's step to (t, q): whether it ends a pair (then call sample()). q must stay
   /// alive and in place until the next call (the run's own state).
   bool stepped(double t, ConstVecRef q) {
@@ -110,6 +118,7 @@ class DoublingEstimate {
   long samples() const { return samples_; }
   ///@}
   long failed_samples() const { return failed_; }  ///< shadow steps of 2h that failed (failed())
+  long single_samples() const { return singles_; }  ///< of those, retried as two of h/2 (started_single())
   /// Samples outside step doubling's asymptotic regime (velocities of the step of 2h and the two
   /// of h differing by more than 1 % of the speed, and the next sample a hundred times quieter: a
   /// transient faster than the step), counted whole; and the time of the first. Their error falls
@@ -149,14 +158,17 @@ class DoublingEstimate {
   double first_transient_t_ = 0.0;
   const double* last_q_ = nullptr;  // the configuration stepped() last saw
   std::string first_failure_;
+  double single_factor_;  // 1 - 2^-p: a single step's difference in units of its local error
+  bool single_ = false;   // the sample under way is one step of h against two of h/2
+  long singles_ = 0;
 };
 
 /// The sampled step doubling of the reflection step (orders 2, 4, 6; a composed step counts as
 /// one step of H). The shadow steps on the run's workspace: its scratch is shared (a shadow step
 /// never overlaps a run step), and what a step leaves for the next one is swapped for the
 /// shadow's own (HeldCaches) around each shadow step, so the run's workspace is left holding what
-/// it held. Besides that set, the watch keeps the shadow's state (q and p; lambda and force too for
-/// composed steps) and the extent's range of q.
+/// it held. Besides that set, the watch keeps the shadow's state (all of it: a retry's two steps
+/// of h/2 step on from the shadow's own) and the extent's range of q.
 /// Both are made at the first sample (the only allocations), or by prepare(). The shadow never
 /// changes the run's state or what its workspace holds for the next step.
 class AccuracyWatch {
@@ -172,9 +184,9 @@ class AccuracyWatch {
   AccuracyWatch(const Model&& model, const WorkspaceOptions&, const RattleOptions&, int) = delete;
 
   /// Call before each step of the run, with the state it starts from, and after it with the new
-  /// state. Never throws; a shadow step that fails is counted (failed_samples(), first_failure()).
-  /// before_step lends the state's lambda and force buffers to a plain shadow step (order 2)
-  /// and has them back, unchanged, before it returns.
+  /// state. Never throws; a shadow step of 2h that fails is counted (failed_samples(),
+  /// first_failure()) and retried as two steps of h/2 against the run's one (single_samples()):
+  /// a failed step never counts as agreement.
   ///@{
   void before_step(State& s) {
     if (estimate_.due()) start_shadow(s);
@@ -209,7 +221,7 @@ class AccuracyWatch {
 
  private:
   void make_shadow();
-  bool lends() const;
+  Status shadow_step(const State& s, const RattleOptions& o, bool from_run);
   void start_shadow(State& s);
   void finish_shadow(const State& s);
   const Model& model_;
@@ -218,6 +230,7 @@ class AccuracyWatch {
   HeldCaches held_;                 // the shadow's, made at the first sample
   bool held_made_ = false;
   RattleOptions options_;  // h doubled
+  RattleOptions halved_;   // h halved: the retry of a step of 2h that failed
   State shadow_;
   DoublingEstimate estimate_;
 };

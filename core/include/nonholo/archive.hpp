@@ -92,8 +92,5 @@ class InArchive {
 void save(OutArchive& a, const State& s);
 void load(InArchive& a, State& s);
 ///@}
-/// save() for a state whose lambda and force are lent out (empty; AccuracyWatch's shadow): the
-/// bytes of the same state with m and n zeros there, which load() reads into vectors of those sizes.
-void save_lent(OutArchive& a, const State& s, Eigen::Index m, Eigen::Index n);
 
 }  // namespace nonholo

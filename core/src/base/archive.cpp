@@ -113,8 +113,5 @@ void save(OutArchive& a, const State& s) {
 void load(InArchive& a, State& s) {
   state_fields(a, s, [&] { a(s.lambda), a(s.force); });
 }
-void save_lent(OutArchive& a, const State& s, Eigen::Index m, Eigen::Index n) {
-  state_fields(a, s, [&] { a.zeros(m), a.zeros(n); });
-}
 
 }  // namespace nonholo

@@ -514,9 +514,10 @@ void RunLoop::close_outputs() {
     // (a check with no sample at all is judged in judge_accuracy: not ok)
     if (w->failed_samples() > 0 && w->samples() > 0 && summary.status == Status::Ok)  // a failed run says it all
       add_warning(summary, "the accuracy check's step of 2 dt failed " + std::to_string(w->failed_samples()) +
-                               " times (first at " + w->first_failure() +
-                               "): dt is within a factor 2 of what the method can take here; the estimate covers "
-                               "the samples that worked");
+                               " times (first at " + w->first_failure() + "): dt is within a factor 2 of what the " +
+                               "method can take here; " + std::to_string(w->single_samples()) +
+                               " of those samples were taken as two steps of dt/2 against one of dt instead, and " +
+                               "the estimate covers the samples that worked");
   }
   // A run without a step compared nothing: no estimate.
   summary.has_error_estimate = config_.error_estimate;

@@ -11,7 +11,7 @@
 namespace nonholo::scenarios {
 
 // Bumped whenever the bytes change meaning: a checkpoint of another format version is refused.
-constexpr long kCheckpointFormat = 3;  // 2: RunConfig::threads; 3: RunSummary::setup_s
+constexpr long kCheckpointFormat = 4;  // 2: RunConfig::threads; 3: RunSummary::setup_s; 4: the accuracy check's retries
 
 struct CheckpointInfo {
   std::string scene, method;
