@@ -11,6 +11,8 @@
 #include <nonholo/build_config.hpp>
 #include <nonholo/version.hpp>
 
+#include "fnv1a.hpp"
+
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
@@ -23,6 +25,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <iterator>
 #include <thread>
 
 namespace nonholo::scenarios {
@@ -255,11 +258,9 @@ std::string scene_file_line(const std::string& scene) {
   if (!is_scene_file(scene)) return "";
   std::ifstream in(scene, std::ios::binary);
   if (!in) return "";  // the scene's reader says why
-  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a, the same on every rank
-  std::size_t size = 0;
-  for (char c; in.get(c); ++size) h = (h ^ static_cast<unsigned char>(c)) * 0x100000001b3ull;
+  const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   std::ostringstream os;
-  os << "scene file " << scene << " of " << size << " bytes, FNV-1a " << std::hex << h << "\n";
+  os << "scene file " << scene << " of " << bytes.size() << " bytes, FNV-1a " << std::hex << fnv1a(bytes) << "\n";
   return os.str();
 }
 

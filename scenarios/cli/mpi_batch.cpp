@@ -2,6 +2,8 @@
 // line that differs), then run the trajectories with ensemble_for; a later failure aborts every rank.
 #include "mpi_batch.hpp"
 
+#include "fnv1a.hpp"
+
 #include <nonholo/mpi_ensemble.hpp>
 
 #include <cstdint>
@@ -15,13 +17,6 @@
 
 namespace nonholo::scenarios {
 namespace {
-
-// FNV-1a: equal commands give equal hashes on every rank (no std::hash: it may differ by build).
-std::uint64_t fnv1a(const std::string& text) {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ull;
-  return h;
-}
 
 std::vector<std::string> lines_of(const std::string& text) {
   std::vector<std::string> lines;

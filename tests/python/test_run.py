@@ -215,6 +215,20 @@ def cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def signal_when_ready(proc, ready, sig):
+    """Polls ready() (no wall-clock wait; 120 s at most), sends sig, returns (stdout, stderr)."""
+    import time
+    try:
+        deadline = time.monotonic() + 120
+        while not ready():
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            time.sleep(0.01)
+        proc.send_signal(sig)
+        return proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+
+
 def test_ctrl_c_stops_an_adaptive_run_inside_an_output_interval_and_it_resumes(tmp_path):
     # One output interval of a few thousand adaptive pairs (seconds here): Ctrl-C was read only
     # between intervals (a run with dt = t_end = 1e300 never stopped); now between pairs, so the
@@ -223,22 +237,13 @@ def test_ctrl_c_stops_an_adaptive_run_inside_an_output_interval_and_it_resumes(t
     # 0.2 s of CPU (its set-up takes milliseconds: it is inside the interval).
     import re
     import subprocess
-    import time
     from support import CLI
     args = ["run", "sleigh_chain", "--set", "bodies=300", "--tol", "1e-4", "--dt", "100", "--t-end", "100"]
     assert cli(*args, "--out", str(tmp_path / "whole.csv")).returncode == 0
     out, checkpoint = tmp_path / "cut.csv", tmp_path / "ck.h5"
     proc = subprocess.Popen([CLI, *args, "--out", str(out), "--checkpoint", str(checkpoint)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 120
-        while cpu_seconds(proc.pid) < 0.2:
-            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
-            time.sleep(0.01)
-        proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=120)
-    finally:
-        proc.kill()
+    stdout, stderr = signal_when_ready(proc, lambda: cpu_seconds(proc.pid) >= 0.2, signal.SIGINT)
     assert proc.returncode == 130, stdout + stderr
     assert re.search(r"interrupted \(SIGINT\) during step 1 at t = \d", stderr), stderr
     assert "status=interrupted" in stdout
@@ -265,7 +270,6 @@ def test_sighup_ends_a_run_as_sigterm_does_with_whole_rows(tmp_path):
     # The terminal closing (SIGHUP) killed the run mid-row; now it stops between steps as on
     # SIGTERM: status interrupted, exit 130, every row of the CSV whole.
     import subprocess
-    import time
     from support import CLI
     out = tmp_path / "hup.csv"
     # SIGHUP as a terminal sends it: not ignored (under nohup, as CI may run, the child would
@@ -273,15 +277,8 @@ def test_sighup_ends_a_run_as_sigterm_does_with_whole_rows(tmp_path):
     proc = subprocess.Popen([CLI, "run", "sleigh_chain", "--set", "bodies=200", "--t-end", "1e6", "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_DFL))
-    try:
-        deadline = time.monotonic() + 120
-        while not (out.exists() and out.stat().st_size > 100000):  # rows are on disk: the run is in its loop
-            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
-            time.sleep(0.01)
-        proc.send_signal(signal.SIGHUP)
-        stdout, stderr = proc.communicate(timeout=120)
-    finally:
-        proc.kill()
+    # rows are on disk: the run is in its loop
+    stdout, stderr = signal_when_ready(proc, lambda: out.exists() and out.stat().st_size > 100000, signal.SIGHUP)
     assert proc.returncode == 130, stdout + stderr
     assert "interrupted (SIGHUP)" in stderr and "status=interrupted" in stdout
     header, rows = read_csv(out)

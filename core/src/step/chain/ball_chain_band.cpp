@@ -57,6 +57,42 @@ inline BallPart block_part(const double* x, bool before, bool after, const doubl
           dot5(u[2], wu[2]), dot5(u[3], wu[0]), dot5(u[3], wu[1]), dot5(u[3], wu[2]), dot5(u[3], wu[3])};
 }
 
+// Ball b's rows of C (its part e) into the band of bandwidth kd, each handed to `eliminate(row)`
+// once complete: the rod before (its diagonal completed by b), then rolling x and y; the rod
+// after gets b's part and waits for ball b+1's. False when an elimination fails.
+template <class Eliminate>
+bool ball_rows(sparse::BandedLdlt& band, int kd, int b, bool before, bool after, const BallPart& e,
+               Eliminate&& eliminate) {
+  // Band row r, every entry (zeros included), its entry (r, c) for c in [r - kd, r] at kd - (r - c).
+  auto start = [&](int r) {
+    double* a = band.row(r);
+    std::fill(a, a + kd + 1, 0.0);
+    return a + kd;  // the diagonal: entry (r, r - j) at [-j]
+  };
+  const int r = 3 * b;
+  if (before) {  // the rod r - 1: its diagonal completed by ball b, then eliminated
+    band.row(r - 1)[kd] += e.pp;
+    if (!eliminate(r - 1)) return false;
+  }
+  double* cx = start(r);  // rolling x and y: ball b alone
+  if (before) cx[-1] = e.xp;
+  cx[0] = e.xx;
+  if (!eliminate(r)) return false;
+  double* cy = start(r + 1);
+  if (before) cy[-2] = e.yp;
+  cy[-1] = e.yx;
+  cy[0] = e.yy;
+  if (!eliminate(r + 1)) return false;
+  if (after) {  // the rod r + 2: ball b's part now, ball b+1 adds to its diagonal
+    double* cr = start(r + 2);
+    if (before) cr[-3] = e.rp;
+    cr[-2] = e.rx;
+    cr[-1] = e.ry;
+    cr[0] = e.rr;
+  }
+  return true;
+}
+
 template <int KD>
 sparse::FactorStatus factorize_rows(const Model& model, Workspace& ws, double min_pivot_ratio) {
   const sparse::BlockDiagonal& minv = model.inverse_mass();
@@ -65,39 +101,14 @@ sparse::FactorStatus factorize_rows(const Model& model, Workspace& ws, double mi
   sparse::BandedLdlt& band = *ws.banded();
   const int kd = KD >= 0 ? KD : band.bandwidth();
   const double* mu = ws.mu_values.data();
-  // Band row r, every entry (zeros included), its entry (r, c) for c in [r - kd, r] at kd - (r - c).
-  auto start = [&](int r) {
-    double* a = band.row(r);
-    std::fill(a, a + kd + 1, 0.0);
-    return a + kd;  // the diagonal: entry (r, r - j) at [-j]
-  };
+  auto eliminate = [&](int r) { return band.template eliminate_row<KD>(r, min_pivot_ratio); };
   band.begin_rows();
   for (int b = 0; b < n; ++b) {
     const double* x = mu + 12 * b;
     const bool before = b > 0, after = b + 1 < n;
     const BallPart e = diagonal ? diagonal_part(x, before, after, minv.diagonal() + 5 * b)
                                 : block_part(x, before, after, minv.block_data(b));
-    const int r = 3 * b;
-    if (before) {  // the rod r - 1: its diagonal completed by ball b, then eliminated
-      band.row(r - 1)[kd] += e.pp;
-      if (!band.template eliminate_row<KD>(r - 1, min_pivot_ratio)) return band.finish_rows(min_pivot_ratio);
-    }
-    double* cx = start(r);  // rolling x and y: ball b alone
-    if (before) cx[-1] = e.xp;
-    cx[0] = e.xx;
-    if (!band.template eliminate_row<KD>(r, min_pivot_ratio)) return band.finish_rows(min_pivot_ratio);
-    double* cy = start(r + 1);
-    if (before) cy[-2] = e.yp;
-    cy[-1] = e.yx;
-    cy[0] = e.yy;
-    if (!band.template eliminate_row<KD>(r + 1, min_pivot_ratio)) return band.finish_rows(min_pivot_ratio);
-    if (after) {  // the rod r + 2: ball b's part now, ball b+1 adds to its diagonal
-      double* cr = start(r + 2);
-      if (before) cr[-3] = e.rp;
-      cr[-2] = e.rx;
-      cr[-1] = e.ry;
-      cr[0] = e.rr;
-    }
+    if (!ball_rows(band, kd, b, before, after, e, eliminate)) break;
   }
   return band.finish_rows(min_pivot_ratio);
 }
@@ -119,11 +130,6 @@ Status ball_chain_kick(const Model& model, Workspace& ws, const double* p_hat, c
   const double scale = -2.0 / h;
   ws.forget_one_forms();
   double* key = ws.one_form_key();
-  auto start = [&](int r) {
-    double* a = band.row(r);
-    std::fill(a, a + KD + 1, 0.0);
-    return a + KD;
-  };
   // Row r's elimination and forward substitution (solve_fixed's arithmetic); false on a failed pivot.
   auto eliminate = [&](int r, double rhs) {
     if (!band.eliminate_row<KD>(r, min_pivot_ratio)) return false;
@@ -146,27 +152,17 @@ Status ball_chain_kick(const Model& model, Workspace& ws, const double* p_hat, c
     const BallPart e = diagonal ? diagonal_part(x, before, after, minv.diagonal() + 5 * b)
                                 : block_part(x, before, after, minv.block_data(b));
     const int r = 3 * b;
-    if (before) {  // the rod r - 1, between balls b-1 and b: ElementSet::ball_chain_times' sum
-      band.row(r - 1)[KD] += e.pp;
-      const double* xp = x - 12;
-      if (!(ok = eliminate(r - 1, xp[8] * vb[-2] + xp[9] * vb[-1] + xp[10] * vb[3] + xp[11] * vb[4]))) break;
-    }
-    double* cx = start(r);
-    if (before) cx[-1] = e.xp;
-    cx[0] = e.xx;
-    if (!(ok = eliminate(r, x[0] * vb[0] + x[1] * vb[1] + x[2] * vb[2] + x[3] * vb[3]))) break;
-    double* cy = start(r + 1);
-    if (before) cy[-2] = e.yp;
-    cy[-1] = e.yx;
-    cy[0] = e.yy;
-    if (!(ok = eliminate(r + 1, x[4] * vb[0] + x[5] * vb[1] + x[6] * vb[2] + x[7] * vb[4]))) break;
-    if (after) {
-      double* cr = start(r + 2);
-      if (before) cr[-3] = e.rp;
-      cr[-2] = e.rx;
-      cr[-1] = e.ry;
-      cr[0] = e.rr;
-    }
+    // The right-hand side of row `row` (mu v: ElementSet::ball_chain_times' sums): the rod before
+    // (between balls b-1 and b), rolling x, rolling y.
+    auto rows_rhs = [&](int row) {
+      if (row == r - 1) {
+        const double* xp = x - 12;
+        return eliminate(row, xp[8] * vb[-2] + xp[9] * vb[-1] + xp[10] * vb[3] + xp[11] * vb[4]);
+      }
+      if (row == r) return eliminate(row, x[0] * vb[0] + x[1] * vb[1] + x[2] * vb[2] + x[3] * vb[3]);
+      return eliminate(row, x[4] * vb[0] + x[5] * vb[1] + x[6] * vb[2] + x[7] * vb[4]);
+    };
+    if (!(ok = ball_rows(band, KD, b, before, after, e, rows_rhs))) break;
   }
   const sparse::FactorStatus status = band.finish_rows(min_pivot_ratio);
   if (!ok || status != sparse::FactorStatus::Ok) {
