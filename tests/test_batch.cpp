@@ -299,6 +299,44 @@ TEST(Progress, ThreadsUpdateItWithoutARace) {
   unsetenv("NONHOLO_PROGRESS");
 }
 
+// A file already at OUT.partial.csv (a journal left by a batch that did not finish, a user's
+// file, or a link) was emptied, then removed at the end. Now the batch refuses it, names it and
+// leaves it, the link's target and an existing --out as they were, with no temporary behind.
+TEST(BatchCommand, AFileWhereTheJournalGoesIsRefusedAndKept) {
+  namespace fs = std::filesystem;
+  const std::string out = temp("kept.csv"), journal = out + ".partial.csv", target = temp("kept_target.txt");
+  std::ofstream(out) << "precious table";
+  for (bool link : {false, true}) {
+    fs::remove(journal);
+    fs::remove(target);
+    if (link) {
+      fs::create_symlink(target, journal);  // dangling: O_CREAT would have made the target
+    } else {
+      std::ofstream(journal) << "rows of an earlier batch";
+    }
+    const Cli r = cli({"batch", "sleigh", "--count", "2", "--t-end", "0.5", "--out", out});
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_THAT(r.err, ::testing::HasSubstr("'" + journal + "' exists: the journal of an earlier batch"));
+    EXPECT_THAT(r.err, ::testing::HasSubstr("move or remove it"));
+    EXPECT_EQ(slurp(out), "precious table");
+    if (link) {
+      EXPECT_TRUE(fs::is_symlink(journal));
+      EXPECT_FALSE(fs::exists(target));
+    } else {
+      EXPECT_EQ(slurp(journal), "rows of an earlier batch");
+    }
+    for (const auto& e : fs::directory_iterator(fs::path(out).parent_path()))
+      EXPECT_NE(e.path().filename().string().rfind("." + fs::path(out).filename().string() + ".", 0), 0u)
+          << "a temporary left behind: " << e.path();
+  }
+  fs::remove(journal);
+  const Cli ok = cli({"batch", "sleigh", "--count", "2", "--t-end", "0.5", "--out", out});
+  EXPECT_EQ(ok.code, 0) << ok.err;
+  EXPECT_EQ(slurp(out).rfind("trajectory,", 0), 0u);
+  EXPECT_FALSE(fs::exists(journal));
+  fs::remove(out);
+}
+
 // The journal of finished rows (OUT.partial.csv) takes no lock per row: each thread appends its
 // rows in blocks. Eight threads add 4000 rows at once; the file must hold the header, then
 // exactly the lines the batch's table writes for the same rows (in any order), none torn or

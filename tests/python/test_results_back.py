@@ -108,6 +108,7 @@ def test_a_killed_batch_keeps_every_finished_row(tmp_path):
     args = ["batch", "sleigh_chain", "--set", "bodies=150", "--count", "60", "--t-end", "30",
             "--vary", "omega0=0.5:1.5", "--threads", "2"]
     out = tmp_path / "killed.csv"
+    out.write_text("an earlier table\n")  # was emptied as the batch began; a killed batch leaves it
     journal = tmp_path / "killed.csv.partial.csv"
     child = subprocess.Popen([CLI, *args, "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 60
@@ -117,6 +118,10 @@ def test_a_killed_batch_keeps_every_finished_row(tmp_path):
     child.wait()
     kept = journal.read_text().splitlines()
     assert len(kept) >= 6, "no rows were journaled before the kill"
+    assert out.read_text() == "an earlier table\n"
+    again = cli(*args, "--out", str(out))  # the journal is not written over
+    assert again.returncode != 0 and "killed.csv.partial.csv' exists" in again.stderr, again.stderr
+    assert journal.read_text().splitlines() == kept
     done = cli(*args, "--out", str(tmp_path / "whole.csv"))
     assert done.returncode == 0, done.stderr
     whole = (tmp_path / "whole.csv").read_text().splitlines()

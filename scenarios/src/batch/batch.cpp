@@ -27,6 +27,7 @@
 #include "output/batch_table.hpp"
 #include "output/file_identity.hpp"
 #include "output/hdf5_output.hpp"
+#include "output/replacing_file.hpp"
 #include "run/run_internal.hpp"
 #include "scenes/random.hpp"
 
@@ -111,7 +112,10 @@ class BatchRun {
   std::optional<Parameters> base_;  // the scene's defaults with --set (set in prepare)
   std::vector<Variation> variations_;
   std::vector<std::string> varied_;
-  std::ofstream out_;
+  // The table and the states, each written to a temporary made before integrating (so an
+  // unwritable place fails first) and renamed over its file at the end: a batch that fails or is
+  // interrupted leaves an existing file as it was.
+  std::unique_ptr<ReplacingFile> out_file_, states_file_;
   std::unique_ptr<Journal> journal_;
   std::unique_ptr<Progress> progress_;
   int threads_ = 0;
@@ -178,10 +182,9 @@ void BatchRun::prepare() {
 }
 
 void BatchRun::open_outputs() {
-  if (!out_path_.empty()) {
-    out_.open(out_path_);
-    if (!out_) throw std::invalid_argument("cannot open '" + out_path_ + "' for writing: " + std::strerror(errno));
-  }
+  if (!out_path_.empty()) out_file_ = std::make_unique<ReplacingFile>(out_path_);
+  if (!config_.states.empty() && (!config_.processes || config_.processes->writes()))
+    states_file_ = std::make_unique<ReplacingFile>(config_.states);
   journal_ = std::make_unique<Journal>(config_.out, config_.processes, config_.run.error_estimate);
 }
 
@@ -346,16 +349,20 @@ void BatchRun::write_outputs(BatchResult& result) {
   BatchConfig used = config_;  // with the dt and t_end the run used (the files' attributes)
   used.run.dt = prepared_.dt;
   used.run.t_end = prepared_.t_end;
-  if (out_.is_open()) {  // CSV, or HDF5 by the extension (hdf5_output.hpp)
+  if (out_file_) {  // CSV, or HDF5 by the extension (hdf5_output.hpp)
     if (is_hdf5_path(out_path_)) {
-      out_.close();  // it only checked that the path is writable, before integrating
-      write_batch_hdf5(out_path_, used, prepared_.info.name, result, prepared_.steps);
+      write_batch_hdf5(out_file_->temporary(), used, prepared_.info.name, result, prepared_.steps);
     } else {
-      write_batch_csv(out_, out_path_, result, config_.run.error_estimate);
+      std::ofstream out(out_file_->temporary());
+      if (!out) throw std::runtime_error("error writing '" + out_path_ + "': " + std::strerror(errno));
+      write_batch_csv(out, out_path_, result, config_.run.error_estimate);
     }
+    out_file_->commit();
   }
-  if (!config_.states.empty() && (!config_.processes || config_.processes->writes()))
-    write_batch_states(config_.states, used, prepared_.info.name, result, prepared_.steps);
+  if (states_file_) {
+    write_batch_states(states_file_->temporary(), used, prepared_.info.name, result, prepared_.steps);
+    states_file_->commit();
+  }
   journal_->remove();
   result.aggregate.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }

@@ -89,7 +89,13 @@ Journal::Journal(const std::string& out, const BatchProcesses* processes, bool e
   if (out.empty()) return;
   path_ = out + (processes && processes->size() > 1 ? ".partial.rank" + std::to_string(processes->rank()) : ".partial") +
           ".csv";
-  fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_APPEND | O_CLOEXEC, 0666);
+  // A new file only: one already there is the journal of a batch that did not finish (its finished
+  // rows) or a file of the user's, and a link there is not followed (it was emptied, then removed).
+  fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_APPEND | O_CLOEXEC, 0666);
+  if (fd_ < 0 && errno == EEXIST)
+    throw std::invalid_argument("'" + path_ + "' exists: the journal of an earlier batch with --out " + out +
+                                " that did not finish (its finished rows; nonholo.load reads it), or a file of " +
+                                "yours. A batch does not write over it: move or remove it");
   if (fd_ < 0) throw std::invalid_argument("cannot open '" + path_ + "' for writing: " + std::strerror(errno));
 }
 

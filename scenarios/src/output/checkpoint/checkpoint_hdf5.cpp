@@ -2,6 +2,7 @@
 #include "output/checkpoint/checkpoint_file.hpp"
 
 #include "output/hdf5_util.hpp"
+#include "output/replacing_file.hpp"
 
 #include <nonholo/version.hpp>
 
@@ -23,20 +24,6 @@ void dataset(hid_t file, const std::string& path, const char* name, hid_t file_t
   Handle d = check(H5Dcreate2(file, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
                    path, std::string("create ") + name);
   if (n > 0) check(H5Dwrite(d.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), path, std::string("write ") + name);
-}
-
-// fsync a file or a directory by path.
-void sync(const std::string& path, bool directory) {
-  const int fd = ::open(path.c_str(), directory ? O_RDONLY | O_DIRECTORY : O_RDONLY);
-  if (fd < 0) throw std::runtime_error("error writing '" + path + "': cannot open it to flush: " + std::strerror(errno));
-  const int rc = ::fsync(fd);
-  ::close(fd);
-  if (rc != 0) throw std::runtime_error("error writing '" + path + "': fsync failed: " + std::strerror(errno));
-}
-
-std::string directory_of(const std::string& path) {
-  const auto slash = path.rfind('/');
-  return slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
 }
 
 [[noreturn]] void not_a_checkpoint(const std::string& path, const std::string& why) {
@@ -67,7 +54,8 @@ T read_number(hid_t on, const std::string& path, const char* name, hid_t memory_
 
 void write_checkpoint(const std::string& path, const CheckpointInfo& info, const std::string& bytes, ConstVecRef q,
                       ConstVecRef p) {
-  const std::string temporary = path + ".tmp";
+  ReplacingFile replacing(path);  // never a fixed name: a link planted there was followed
+  const std::string& temporary = replacing.temporary();
   {
     const Quiet quiet;
     Handle file = create_file(temporary);
@@ -85,11 +73,7 @@ void write_checkpoint(const std::string& path, const CheckpointInfo& info, const
     dataset(f, temporary, "p", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, p.data(), static_cast<hsize_t>(p.size()));
     if (!file.reset()) fail(temporary, "close the file");
   }
-  sync(temporary, false);
-  if (std::rename(temporary.c_str(), path.c_str()) != 0)
-    throw std::runtime_error("error writing '" + path + "': cannot rename '" + temporary + "' over it: " +
-                             std::strerror(errno));
-  sync(directory_of(path), true);
+  replacing.commit();
 }
 
 std::string read_checkpoint(const std::string& path, CheckpointInfo* info) {
