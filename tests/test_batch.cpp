@@ -335,6 +335,12 @@ TEST(BatchCommand, AFileWhereTheJournalGoesIsRefusedAndKept) {
   EXPECT_EQ(slurp(out).rfind("trajectory,", 0), 0u);
   EXPECT_FALSE(fs::exists(journal));
   fs::remove(out);
+  // A directory as --out: refused before the trajectories run, as opening it for writing was.
+  fs::create_directory(out);
+  const Cli dir = cli({"batch", "sleigh", "--count", "2", "--t-end", "0.5", "--out", out});
+  EXPECT_EQ(dir.code, 1);
+  EXPECT_THAT(dir.err, ::testing::HasSubstr("cannot open '" + out + "' for writing: it is a directory"));
+  fs::remove(out);
 }
 
 // The journal of finished rows (OUT.partial.csv) takes no lock per row: each thread appends its

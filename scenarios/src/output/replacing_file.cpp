@@ -34,6 +34,13 @@ void sync_path(const std::string& path, bool directory) {
 }  // namespace
 
 ReplacingFile::ReplacingFile(const std::string& path) : target_(target_of(path)) {
+  // What opening the target for writing would have refused, it refuses still (a rename would
+  // replace a file one may not write, and fail on a directory only at the end).
+  std::error_code error;
+  if (std::filesystem::is_directory(target_, error))
+    throw std::invalid_argument("cannot open '" + path + "' for writing: it is a directory");
+  if (::access(target_.c_str(), F_OK) == 0 && ::access(target_.c_str(), W_OK) != 0)
+    throw std::invalid_argument("cannot open '" + path + "' for writing: " + std::strerror(errno));
   const std::filesystem::path target(target_);
   const std::string stem = (target.parent_path() / ("." + target.filename().string() + ".")).string();
   // open(O_CREAT | O_EXCL | O_NOFOLLOW) of a random name, as mkstemp does, but with mode 0666

@@ -12,7 +12,8 @@ class ReplacingFile {
  public:
   // Makes the temporary (mode 0666 less the umask, as any new file) in the directory of
   // `path`'s target: links followed, so a link to a file replaces that file and stays a link.
-  // Throws std::invalid_argument naming `path` when it cannot (a directory one cannot write).
+  // Throws std::invalid_argument naming `path` when it cannot (a directory one cannot write), or
+  // when the target is a directory or a file one may not write (as opening it would).
   explicit ReplacingFile(const std::string& path);
   ReplacingFile(const ReplacingFile&) = delete;
   ReplacingFile& operator=(const ReplacingFile&) = delete;
