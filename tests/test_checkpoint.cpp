@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -183,6 +184,101 @@ TEST(Checkpoint, ALinkPlantedBesideItIsNotFollowed) {
   EXPECT_EQ(run_scene(resume).status, Status::Ok);
   fs::remove(checkpoint + ".tmp");
   fs::remove(victim);
+}
+
+// Two runs cannot write one file: while a run goes on (its sink at frame 130, after the
+// checkpoints of steps 40, 80 and 120), a resume of its checkpoint and fresh runs given its output
+// or its checkpoint are refused, naming the file, which they leave as it was; once the run has
+// ended, the resume goes on. (Locks of an open file: two in one process exclude each other too.)
+TEST(Checkpoint, TwoRunsCannotWriteOneFile) {
+  const std::string out = temp("lock_out.csv"), checkpoint = temp("lock_ck.h5");
+  fs::remove(checkpoint);
+  RunConfig first = config_of({"sleigh_chain", "--set", "bodies=5", "--t-end", "3"});
+  first.csv_path = out;
+  first.checkpoint_path = checkpoint;
+  first.checkpoint_every_steps = 40;
+  std::vector<std::string> refusals;
+  auto refused = [&](RunConfig c) {
+    try {
+      run_scene(c);
+      refusals.push_back("(ran)");
+    } catch (const std::invalid_argument& e) {
+      refusals.push_back(e.what());
+    }
+  };
+  StopAfter probe(1 << 30, [&](long frame) {
+    if (frame != 130) return;
+    const auto size = fs::file_size(out);
+    const std::string written = bytes_of(checkpoint);
+    RunConfig resume;
+    resume.resume_path = checkpoint;
+    refused(resume);
+    RunConfig other = config_of({"sleigh", "--t-end", "1"});
+    other.csv_path = out;
+    refused(other);
+    other.csv_path.clear();
+    other.checkpoint_path = checkpoint;
+    refused(other);
+    EXPECT_EQ(fs::file_size(out), size);
+    EXPECT_TRUE(bytes_of(checkpoint) == written) << "the checkpoint was rewritten";
+  });
+  first.sink = &probe;
+  ASSERT_EQ(run_scene(first).status, Status::Ok);
+  ASSERT_EQ(refusals.size(), 3u);
+  for (const std::string& r : refusals)
+    EXPECT_THAT(r, ::testing::HasSubstr("is in use: another nonholo run is writing it"));
+  EXPECT_THAT(refusals[1], ::testing::HasSubstr("'" + out + "'"));
+  EXPECT_THAT(refusals[2], ::testing::HasSubstr("'" + checkpoint + "' is in use"));
+  RunConfig resume;
+  resume.resume_path = checkpoint;
+  resume.t_end = 4.0;
+  EXPECT_EQ(run_scene(resume).status, Status::Ok);
+}
+
+// A stop request during the set-up (Ctrl-C while a large chain is built) ends the run after the
+// phase it is in: interrupted, no step, and no output created (it waited for the whole set-up,
+// then wrote the first frame and stopped "after step 0").
+TEST(Checkpoint, AStopDuringTheSetUpEndsTheRunBeforeAnythingIsWritten) {
+  const std::string out = temp("setup_stop.csv");
+  fs::remove(out);
+  RunConfig c = config_of({"sleigh_chain", "--set", "bodies=1000", "--t-end", "1"});
+  c.csv_path = out;
+  const std::atomic<bool> stop{true};
+  c.stop = &stop;
+  const RunSummary s = run_scene(c);
+  EXPECT_EQ(s.status, Status::Interrupted);
+  EXPECT_THAT(s.message, ::testing::HasSubstr("interrupted by the caller during the set-up (after building the "
+                                              "model): no step was taken and no output written"));
+  EXPECT_EQ(s.steps, 0);
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// A resume continues only the file its run wrote: another run's output at that path (here one
+// longer than the checkpoint's position, which the length alone let through) is refused and
+// left as it is; the same run started again writes the same rows, and is continued.
+TEST(Checkpoint, AResumeRefusesAFileAnotherRunWrote) {
+  const std::string out = temp("foreign.csv"), checkpoint = temp("foreign_ck.h5");
+  RunConfig first = config_of({"sleigh_chain", "--set", "bodies=5", "--t-end", "2"});
+  first.csv_path = out;
+  first.checkpoint_path = checkpoint;
+  ASSERT_EQ(run_scene(first).status, Status::Ok);
+  RunConfig other = config_of({"sleigh_chain", "--set", "bodies=5", "--set", "v0=1.5", "--t-end", "4"});
+  other.csv_path = out;
+  ASSERT_EQ(run_scene(other).status, Status::Ok);
+  const std::string foreign = bytes_of(out);
+  RunConfig resume;
+  resume.resume_path = checkpoint;
+  resume.t_end = 3.0;
+  testing::expect_error([&] { run_scene(resume); }, "not the output of this run");
+  EXPECT_EQ(bytes_of(out), foreign);
+  RunConfig again = first;
+  again.checkpoint_path.clear();
+  again.t_end = 4.0;
+  ASSERT_EQ(run_scene(again).status, Status::Ok);
+  EXPECT_EQ(run_scene(resume).status, Status::Ok);
+  // ... and an end before the checkpoint's is refused (it ran no step and ended ok at t = 2).
+  resume.t_end = 1.0;
+  testing::expect_error([&] { run_scene(resume); }, "--t-end 1 is before the checkpoint's t = 3");
 }
 
 // A checkpoint written every 40 steps, copied while the run goes on (at frame 130: the one of

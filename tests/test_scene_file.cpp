@@ -156,6 +156,18 @@ TEST(SceneFile, DuplicateKeysAreRefusedWithTheirPath) {
                         R"(dup.json: (top level): duplicate key '\x07')");
 }
 
+// A NUL byte ended the input for the parser: what followed was ignored, silently (a second
+// body after it, a trailing typo). Refused wherever it is, with its line.
+TEST(SceneFile, ANulByteIsRefusedWithItsLine) {
+  const std::string text = R"({"bodies": [)" + kBody + "]}";
+  testing::expect_error([&] { scenarios::parse_scene_text(text + std::string(1, '\0') + "junk", "nul.json"); },
+                        "nul.json: line 1 has a NUL byte (byte " + std::to_string(text.size() + 1));
+  testing::expect_error(
+      [&] { scenarios::parse_scene_text("{\n\"dt\": 0.1,\n" + std::string(1, '\0') + text.substr(1), "nul.json"); },
+      "nul.json: line 3 has a NUL byte");
+  EXPECT_NO_THROW(scenarios::parse_scene_text(text, "nul.json"));
+}
+
 TEST(SceneFile, OnlyRegularFilesAreRead) {
   const std::string dir = temp_path("dir.json");
   std::filesystem::create_directory(dir);

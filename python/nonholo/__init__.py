@@ -103,8 +103,10 @@ class _Result:
             setattr(self, name, d[name])
 
     @property
-    def status(self) -> str:
-        return self.summary["status"]
+    def status(self) -> Optional[str]:
+        """The summary's status; None where there is no summary (a CSV file, or the HDF5 file of a
+        run that did not finish: killed)."""
+        return self.summary.get("status")
 
 
 class RunResult(_Result):
@@ -141,8 +143,11 @@ class RunResult(_Result):
     line: str
 
     def __repr__(self) -> str:
+        if not self.summary:  # read from a CSV, or from the file of a run that did not finish
+            return "<nonholo.RunResult: %d frames x %d coordinates, no summary>" % (
+                self.t.shape[0], len(self.coordinates))
         return "<nonholo.RunResult %s: %d frames x %d coordinates, status=%s>" % (
-            self.summary["scene"], self.t.shape[0], len(self.coordinates), self.status)
+            self.summary.get("scene", "?"), self.t.shape[0], len(self.coordinates), self.status)
 
 
 class BatchResult(_Result):
@@ -174,8 +179,11 @@ class BatchResult(_Result):
         super().__init__(d)
 
     def __repr__(self) -> str:
+        if "trajectories" not in self.summary:  # read from a CSV table or a journal: no summary
+            rows = len(self.columns["trajectory"]) if "trajectory" in self.columns else len(self.messages)
+            return "<nonholo.BatchResult: %d trajectories, no summary>" % rows
         return "<nonholo.BatchResult %s: %d trajectories, %d failed>" % (
-            self.summary["scene"], self.summary["trajectories"], self.summary["failed"])
+            self.summary.get("scene", "?"), self.summary["trajectories"], self.summary["failed"])
 
 
 def _text(name, value):
@@ -516,13 +524,17 @@ def animate(result: Union[RunResult, _Path], path: _Path, **options: Any) -> Any
     """A GIF or MP4 (by path's extension) of a run: a RunResult or a run's output file (CSV or
     HDF5). Options as `nonholo animate --help` lists them, as keywords (fps=, width=, follow=,
     trail=, frames=). Needs matplotlib, and Pillow for GIF or ffmpeg for MP4. Returns what was
-    drawn: the frames' indices and times, the image size and the view's limits."""
+    drawn: the frames' indices and times, the image size and the view's limits, and `note`: what
+    was left out ("" when nothing; frames from a NaN, infinite or enormous coordinate on, as a
+    failed run leaves them)."""
     from ._animation import animate as _animate
     return _animate(result, path, **options)
 
 
-def view(result: Union[RunResult, _Path], path: _Path, **options: Any) -> None:
+def view(result: Union[RunResult, _Path], path: _Path, **options: Any) -> str:
     """A self-contained HTML file that plays a run (a RunResult or a run's output file) in a
-    browser with no server: the bodies, their paths, the energy and residual against time."""
+    browser with no server: the bodies, their paths, the energy and residual against time.
+    Returns a note on what was left out ("" when nothing; frames from a NaN, infinite or
+    enormous coordinate on, as a failed run leaves them)."""
     from ._viewer import view as _view
-    _view(result, path, **options)
+    return _view(result, path, **options)

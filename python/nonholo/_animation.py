@@ -22,6 +22,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from ._command import CommandParser, same_file
+from ._frames import drawable
 
 BODY = "#1f77b4"     # planar bodies' fill
 LEAD = "#d62728"     # the lead (body 0) of a chain, and the rotating marker of rigid bodies
@@ -48,6 +49,7 @@ class Animation:
         self.size = size
         self.limits = limits
         self.box = box
+        self.note = ""  # set when frames were left out (non-finite or out of range from some time on)
 
     def to_pixel(self, frame: int, x: float, y: float) -> Tuple[float, float]:
         x0, x1, y0, y1 = self.limits[frame]
@@ -213,8 +215,13 @@ def animate(result: Any, path: Union[str, "os.PathLike[str]"], *, fps: int = 20,
     out_dir = os.path.dirname(os.path.abspath(out))
     if not os.path.isdir(out_dir):
         raise AnimationError("%s: no such directory: %s" % (out, out_dir))
-    return _draw(t, q, bodies, scene, parameters, label, out, ext, int(fps), int(width), bool(follow),
+    columns = [c for b in bodies for c in (b.x, b.y, b.theta, b.phi, *(b.quat or [])) if c is not None]
+    count, note = drawable(t, q, columns, list(run.coordinates), label or "the run", AnimationError)
+    t, q = t[:count], q[:count]
+    anim = _draw(t, q, bodies, scene, parameters, label, out, ext, int(fps), int(width), bool(follow),
                  None if trail is None else float(trail), int(frames))
+    anim.note = note
+    return anim
 
 
 def _draw(t: np.ndarray, q: np.ndarray, bodies: List[_Body], scene: str, parameters: Dict[str, float],
@@ -455,6 +462,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except (AnimationError, OSError) as e:
         sys.stderr.write("%s: %s\n" % (parser.prog, e))
         return 1
+    if anim.note:
+        sys.stderr.write("%s: note: %s\n" % (parser.prog, anim.note))
     sys.stderr.write("%s: %d frames, %dx%d, t = %g .. %g\n" % (args.out, len(anim.indices), anim.size[0], anim.size[1],
                                                                anim.times[0], anim.times[-1]))
     return 0

@@ -40,6 +40,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from ._command import CommandParser, same_file
+from ._frames import drawable
 
 MARGIN_PX = 40
 DEFAULT_MAX_FRAMES = 1000
@@ -145,6 +146,12 @@ def build_page(result: Any, source: Optional[str] = None, max_frames: int = DEFA
                three: Optional[str] = None) -> str:
     """The HTML text for a RunResult (source: the file it came from, for /parameters and the
     page's title; three: three.module.min.js's path, default the package's)."""
+    return _page(result, source, max_frames, max_bodies, title, three)[0]
+
+
+def _page(result: Any, source: Optional[str], max_frames: int, max_bodies: int, title: Optional[str],
+          three: Optional[str]) -> Tuple[str, str]:
+    """build_page's text, and a note on the frames left out ("" when none)."""
     from . import RunResult
     if not isinstance(result, RunResult):
         raise ViewError("%s: a batch's file, not a run's: nonholo view plays one run (nonholo run --out)"
@@ -159,6 +166,11 @@ def build_page(result: Any, source: Optional[str] = None, max_frames: int = DEFA
     scene = str(summary.get("scene", ""))
     params = _parameters(source)
     kind, bodies = _bodies(result.coordinates)
+    # Frames from the first NaN, infinite or enormous coordinate on (a failed run) are left out:
+    # the page's JSON could not hold them ("Out of range float values are not JSON compliant").
+    count, note = drawable(t, q, [c for b in bodies for c in b["columns"] if c is not None],
+                           list(result.coordinates), source or "the run", ViewError)
+    t, q = t[:count], q[:count]
     frames = _decimate(t.shape[0], max_frames)
     drawn = _decimate(len(bodies), max_bodies)
     nf, nb = len(frames), len(drawn)
@@ -274,12 +286,14 @@ def build_page(result: Any, source: Optional[str] = None, max_frames: int = DEFA
     meta_json = _inline_json(meta)
     title_html = _html_text(meta["title"])
     fill = {"__TITLE__": title_html, "__THREE__": three_block, "__META__": meta_json, "__FRAMES__": frames_b64}
-    return re.sub("__(?:TITLE|THREE|META|FRAMES)__", lambda m: fill[m.group(0)], page)
+    return re.sub("__(?:TITLE|THREE|META|FRAMES)__", lambda m: fill[m.group(0)], page), note
 
 
 def view(result: Any, path: Union[str, "os.PathLike[str]"], max_frames: int = DEFAULT_MAX_FRAMES,
-         max_bodies: int = DEFAULT_MAX_BODIES, title: Optional[str] = None) -> None:
-    """Writes the HTML viewer of a run (a RunResult or a run's CSV/HDF5 file) to path."""
+         max_bodies: int = DEFAULT_MAX_BODIES, title: Optional[str] = None) -> str:
+    """Writes the HTML viewer of a run (a RunResult or a run's CSV/HDF5 file) to path. Returns a
+    note on the frames left out ("" when none): those from the first NaN, infinite or enormous
+    coordinate on (a run that failed or blew up)."""
     source: Optional[str] = None
     if isinstance(result, (str, os.PathLike)):
         source = os.fspath(result)
@@ -294,9 +308,10 @@ def view(result: Any, path: Union[str, "os.PathLike[str]"], max_frames: int = DE
     if source is not None and same_file(source, os.fspath(path)):
         raise ViewError("%s is the input %s (the same file, through a link or another name): writing the page "
                         "would destroy it; write elsewhere" % (os.fspath(path), source))
-    page = build_page(result, source, max_frames=max_frames, max_bodies=max_bodies, title=title)
+    page, note = _page(result, source, max_frames, max_bodies, title, None)
     with open(os.fspath(path), "w", encoding="utf-8") as fh:
         fh.write(page)
+    return note
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -320,10 +335,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         print("%s: -o %s: the output is an HTML file: give a name ending in .html" % (prog, args.out), file=sys.stderr)
         return 1
     try:
-        view(args.file, args.out, max_frames=args.max_frames, max_bodies=args.max_bodies, title=args.title)
+        note = view(args.file, args.out, max_frames=args.max_frames, max_bodies=args.max_bodies, title=args.title)
     except (ViewError, ValueError, OSError, ImportError, KeyError) as e:
         print("%s: %s" % (prog, e), file=sys.stderr)
         return 1
+    if note:
+        print("%s: note: %s" % (prog, note), file=sys.stderr)
     size = os.path.getsize(args.out)
     print("%s: wrote %s (%.1f MB)" % (prog, args.out, size / 1e6))
     return 0

@@ -303,6 +303,11 @@ void model_properties(py::class_<PyModel>& c) {
       .def_property_readonly("is_chain", [](const PyModel& p) { return p.model.is_chain(); },
                              "Whether the explicit step can stream the model body by body (a chain of elements): "
                              "backend 'auto' then chooses 'banded'.")
+      .def_property_readonly("performance_note", [](const PyModel& p) { return p.model.performance_note(); },
+                             "What in the model's structure makes its steps slower than they could be ('' when "
+                             "nothing): a chain of knife edges and hitches built in an order the fused chain step "
+                             "does not read (it says which row and how to order them), or a body touched by so many "
+                             "rows that C has a dense block (its cost per step).")
       .def_property_readonly("calls_python", [](const PyModel& p) { return p.calls_python; },
                              "True when a callback is Python; when false, step() and steps() release the GIL.");
 }

@@ -219,20 +219,24 @@ why the last call failed. One call at a time: see step().)")
 void bind_steps(py::module_& m) {
   m.def("start_from_velocity",
         [](const PyModel& model, Workspace& ws, double t0, const Vector& q0, const Vector& v0,
-           const std::string& multiplier, double min_pivot_ratio) {
+           const std::string& multiplier, double min_pivot_ratio, double max_gap) {
           check_pair(model, ws);
           StartOptions o;
           if (multiplier == "zero") o.multiplier = InitialMultiplier::Zero;
           else if (multiplier != "continuous")
             throw py::value_error("multiplier '" + multiplier + "': expected continuous or zero");
           o.min_pivot_ratio = min_pivot_ratio;
+          o.max_gap = max_gap;
           return start_from_velocity(model.model, ws, t0, q0, v0, o);
         },
         py::arg("model"), py::arg("ws"), py::arg("t0"), py::arg("q0"), py::arg("v0"), py::kw_only(),
         py::arg("multiplier") = "continuous", py::arg("min_pivot_ratio") = StartOptions{}.min_pivot_ratio,
+        py::arg("max_gap") = StartOptions{}.max_gap,
         R"(The state at (t0, q0) with the velocity guess v0 projected M-orthogonally onto D(q0). q0 has
 n_q entries (a rigid body's quaternion of norm 1 within 1e-6, normalised here), v0 n_v (a rigid
-body: Omega in its body frame, then its centre's velocity).)");
+body: Omega in its body frame, then its centre's velocity). Closed hitches must hold at q0: a
+gap above max_gap x (1 + |q0|_inf) is refused (ValueError naming the hitch); max_gap=inf lets
+the first step close it.)");
   m.def("start_from_two_points",
         [](const PyModel& model, Workspace& ws, double t0, const Vector& q0, const Vector& q1, double h,
            double tolerance, const std::string& rotation) {

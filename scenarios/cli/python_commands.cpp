@@ -26,16 +26,26 @@ const char* module_of(const std::string& command) {
 }
 
 #ifdef NONHOLO_PYTHON_EXECUTABLE
-// The package next to this executable: the build tree's python/ when it runs from the build
-// tree, else the installed one. NONHOLO_PYTHONPATH overrides both.
-std::string package_dir() {
-  if (const char* forced = std::getenv("NONHOLO_PYTHONPATH")) return forced;
+// Where the package may be, in order: NONHOLO_PYTHONPATH; python/ beside this executable (a
+// build tree, also when copied or moved: it was looked for at the configured build path only);
+// the build tree this executable was configured in; the installed one.
+std::vector<std::string> package_candidates() {
+  if (const char* forced = std::getenv("NONHOLO_PYTHONPATH")) return {forced};
   char self[4096];
   const ssize_t n = readlink("/proc/self/exe", self, sizeof(self) - 1);
   const std::string exe = n > 0 ? std::string(self, static_cast<std::size_t>(n)) : std::string();
-  const std::string build = NONHOLO_BUILD_DIR;
-  if (exe.rfind(build + "/", 0) == 0) return build + "/python";
-  return NONHOLO_PYTHON_INSTALLED_DIR;
+  std::vector<std::string> out;
+  if (const auto slash = exe.rfind('/'); slash != std::string::npos) out.push_back(exe.substr(0, slash) + "/python");
+  out.push_back(std::string(NONHOLO_BUILD_DIR) + "/python");
+  out.push_back(NONHOLO_PYTHON_INSTALLED_DIR);
+  return out;
+}
+
+// The first candidate that holds the package (nonholo/__init__.py); "" when none does.
+std::string package_dir(const std::vector<std::string>& candidates) {
+  for (const std::string& dir : candidates)
+    if (::access((dir + "/nonholo/__init__.py").c_str(), R_OK) == 0) return dir;
+  return "";
 }
 #endif
 
@@ -58,8 +68,19 @@ bool run_python_command(int argc, const char* const* argv, int* exit_code) {
   for (std::string& a : args) child_argv.push_back(a.data());
   child_argv.push_back(nullptr);
 
+  const std::vector<std::string> candidates = package_candidates();
+  const std::string dir = package_dir(candidates);
+  if (dir.empty()) {  // python3 would say only "No module named 'nonholo'"
+    std::cerr << "nonholo " << argv[1] << ": cannot find nonholo's Python package (nonholo/__init__.py); looked in";
+    for (const std::string& c : candidates) std::cerr << " " << c;
+    std::cerr << ": run the nonholo of a build tree (python/ beside it), install nonholo (cmake --install), or set "
+                 "NONHOLO_PYTHONPATH to the folder that holds nonholo/"
+              << std::endl;
+    *exit_code = 1;
+    return true;
+  }
   const char* old = std::getenv("PYTHONPATH");
-  const std::string path = package_dir() + (old && *old ? std::string(":") + old : std::string());
+  const std::string path = dir + (old && *old ? std::string(":") + old : std::string());
   setenv("PYTHONPATH", path.c_str(), 1);
   setenv("NONHOLO_COMMAND_NAME", (std::string("nonholo ") + argv[1]).c_str(), 1);  // for its usage line
 

@@ -10,7 +10,7 @@ import pytest
 
 import nonholo
 from nonholo import _animation
-from support import cli
+from support import CLI, cli
 
 Image = pytest.importorskip("PIL.Image")
 
@@ -128,6 +128,47 @@ def test_bodies_are_drawn_where_the_file_says(tmp_path):
 def animate_cli(*args):
     done = cli("animate", *args)
     return done.returncode, done.stderr
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "-1.7e308", "1e200"])
+def test_frames_that_cannot_be_drawn_are_left_out_and_said(tmp_path, bad):
+    # A file whose coordinates turn NaN, infinite or enormous at some frame (another tool's, or
+    # edited): animate raised matplotlib's traceback ("Axis limits cannot be NaN or Inf", then an
+    # IndexError), view "Out of range float values are not JSON compliant". Both now show the
+    # frames before it and say what was left out; a first frame so is refused.
+    import csv as csvlib
+    path = run(tmp_path, "run.csv", "sleigh_chain", "--set", "bodies=3", "--t-end", "1", "--every", "10")
+    with open(path, newline="") as f:
+        rows = list(csvlib.reader(f))
+    rows[5][1] = bad  # x0 at t = 0.4 (row 0 is the header)
+    edited = tmp_path / "edited.csv"
+    with open(edited, "w", newline="") as f:
+        csvlib.writer(f).writerows(rows)
+    note = "frames from t = 0.4 on cannot be drawn (x0 is %r: NaN, infinite or beyond 1e+150" % float(bad)
+    done = cli("animate", str(edited), "-o", str(tmp_path / "a.gif"))
+    assert done.returncode == 0 and note in done.stderr and "shown up to t = 0.3" in done.stderr, done.stderr
+    assert gif_frames(tmp_path / "a.gif")[0] == 4
+    assert note in nonholo.view(edited, tmp_path / "v.html")
+    done = cli("view", str(edited), "-o", str(tmp_path / "v2.html"))
+    assert done.returncode == 0 and note in done.stderr, done.stderr
+    rows[1][2] = bad  # y0 of the first frame
+    with open(edited, "w", newline="") as f:
+        csvlib.writer(f).writerows(rows)
+    for command, out in (("animate", "b.gif"), ("view", "b.html")):
+        done = cli(command, str(edited), "-o", str(tmp_path / out))
+        assert done.returncode == 1 and "its first frame cannot be drawn: y0 is %r" % float(bad) in done.stderr, done.stderr
+        assert "Traceback" not in done.stderr
+
+
+def test_a_package_not_found_says_where_it_was_looked_for(tmp_path):
+    # python3 said only "No module named 'nonholo'" (a copied or moved build, not installed).
+    nowhere = tmp_path / "nowhere"
+    env = dict(os.environ, NONHOLO_PYTHONPATH=str(nowhere))
+    done = subprocess.run([CLI, "animate", "x.csv", "-o", str(tmp_path / "x.gif")], env=env, capture_output=True,
+                          text=True)
+    assert done.returncode == 1, done.stderr
+    assert ("cannot find nonholo's Python package (nonholo/__init__.py); looked in %s: run the nonholo of a build "
+            "tree (python/ beside it)" % nowhere) in done.stderr
 
 
 def test_messages(tmp_path):

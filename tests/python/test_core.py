@@ -487,6 +487,70 @@ def chain_start(model, ws):
     return nonholo.start_from_velocity(model, ws, 0.0, q0, np.tile([1.0, 0.0, 0.0], n))
 
 
+def test_an_open_hitch_at_the_start_is_refused():
+    # A gap of 6 was accepted, and the first step then advised a smaller step (scene files refuse
+    # it). Refused, naming the hitch; max_gap=inf lets the first step close it, as before.
+    model = chain_builder(4).build()
+    ws = nonholo.Workspace(model)
+    q0 = np.zeros(12)
+    q0[0::3] = -1.0 * np.arange(4)
+    q0[6] -= 6.0  # body 2 six lengths behind its hitch
+    v0 = np.tile([1.0, 0.0, 0.0], 4)
+    with pytest.raises(ValueError, match=r"open at q0: one-form row 4 \(the hitch with rear body 1 and front body 2, "
+                                         r"its x row\) has gap 6,"):
+        nonholo.start_from_velocity(model, ws, 0.0, q0, v0)
+    q0[6] += 6.0 - 1e-12  # round-off of a placement: accepted
+    nonholo.start_from_velocity(model, ws, 0.0, q0, v0)
+    q0[6] -= 1e-3
+    s = nonholo.start_from_velocity(model, ws, 0.0, q0, v0, max_gap=float("inf"))
+    assert nonholo.step(model, ws, s, nonholo.RattleOptions(0.01)) == nonholo.Status.Ok, ws.message
+
+
+def test_a_model_says_what_makes_its_steps_slow():
+    # Knife edges first, then hitches (a natural pair of loops): a chain, but not in the order the
+    # fused step reads, so it took the general path (3.4x slower per body-step measured, 2000
+    # bodies) and said nothing. Now performance_note names the row and the order; the motion is
+    # the same (an independent check that the two are one model). A hub hitched to 130 bodies
+    # (260 rows on it: a dense block of C) says its cost.
+    n = 12
+    b = nonholo.ModelBuilder()
+    for i in range(n):
+        b.add_planar_body([f"x{i}", f"y{i}", f"theta{i}"], 1.0, 0.1)
+    for i in range(n):
+        b.add_knife_edge(i, a=0.1)
+    for i in range(n - 1):
+        b.add_hitch(i, i + 1, 0.5, 0.5)
+    b.add_thrust(0, force=1.0, torque=0.2)
+    loops, chain = b.build(), chain_builder(n).build()
+    assert chain.is_chain and chain.performance_note == ""
+    assert not loops.is_chain
+    assert ("make a chain, but not in the order the fused chain step reads (the hitch from body 0 comes after "
+            "rows of body 11)") in loops.performance_note
+    assert "add body b's knife edge, then the hitch with rear body b and front body b + 1" in loops.performance_note
+    final = []
+    for model in (loops, chain):
+        ws = nonholo.Workspace(model)
+        s = chain_start(model, ws)
+        assert nonholo.steps(model, ws, s, nonholo.RattleOptions(0.01), 300) == nonholo.Status.Ok, ws.message
+        final.append(s.q.copy())
+    assert np.max(np.abs(final[0] - final[1])) < 1e-11
+    star = nonholo.ModelBuilder()
+    for i in range(131):
+        star.add_planar_body([f"x{i}", f"y{i}", f"theta{i}"], 1.0, 0.1)
+    for i in range(1, 131):
+        star.add_hitch(i, 0, 0.5, 0.5)
+    note = star.build().performance_note
+    assert "body 0 is touched by 260 constraint rows" in note and "a dense 260 x 260 block" in note
+    assert "make a chain" not in note
+    # One hitch fewer on the hub: under the threshold of 256 rows, nothing said.
+    star = nonholo.ModelBuilder()
+    for i in range(128):
+        star.add_planar_body([f"x{i}", f"y{i}", f"theta{i}"], 1.0, 0.1)
+    for i in range(1, 128):
+        star.add_hitch(i, 0, 0.5, 0.5)
+    assert star.build().performance_note == ""
+
+
 def test_steps_without_the_gil_matches_repeated_step_on_an_element_chain():
     model = chain_builder(8).build()
     assert model.has_elements and model.is_chain and not model.calls_python

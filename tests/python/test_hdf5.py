@@ -182,6 +182,53 @@ def test_a_killed_run_leaves_a_readable_file_of_the_runs_frames(tmp_path):
             assert np.array_equal(again.p.view(np.uint64), back.p.view(np.uint64)), delay
 
 
+def test_a_run_killed_with_hdf5_output_resumes_bit_for_bit(tmp_path):
+    # kill -9 left the file marked open by its writer: --resume exited 1 ("cannot open it for
+    # writing (HDF5)"). Now the resume takes the file up (the mark cleared) and continues it into
+    # the uninterrupted run's frames, every bit; closed at the end, it opens with plain h5py.
+    args = ["run", "sleigh_chain", "--set", "bodies=100", "--every", "3"]
+    out, checkpoint = tmp_path / "killed.h5", tmp_path / "ck.h5"
+    child = subprocess.Popen([CLI, *args, "--t-end", "1e6", "--out", str(out), "--checkpoint", str(checkpoint),
+                              "--checkpoint-every", "20"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120.0
+    step = 0
+    while step < 60:  # a few checkpoints in (written whole, renamed: readable whenever it is there)
+        assert child.poll() is None and time.monotonic() < deadline
+        if checkpoint.exists():
+            with h5py.File(checkpoint, "r") as f:
+                step = int(f.attrs["step"])
+        time.sleep(0.01)
+    child.send_signal(signal.SIGKILL)
+    child.wait()
+    with pytest.raises(OSError):
+        h5py.File(out, "r")  # the mark a killed writer leaves (swmr=True or nonholo.load read it)
+    with h5py.File(checkpoint, "r") as f:
+        t = float(f.attrs["t"])
+        assert text(f.attrs["run_id"]) == text(h5py.File(out, "r", swmr=True).attrs["run_id"])
+    end = repr(round(t + 0.6, 10))
+    resumed = cli("run", "--resume", str(checkpoint), "--t-end", end)
+    assert resumed.returncode == 0, resumed.stderr
+    whole = cli(*args, "--t-end", end, "--out", str(tmp_path / "whole.h5"))
+    assert whole.returncode == 0, whole.stderr
+    with h5py.File(out, "r") as a, h5py.File(tmp_path / "whole.h5", "r") as b:
+        assert a["t"].shape[0] == b["t"].shape[0] > 20
+        for name in ["t", "q", "p", "energy", "energy_post", "residual", "gap"]:
+            assert np.array_equal(a[name][()].view(np.uint64), b[name][()].view(np.uint64)), name
+        assert a["summary"].attrs["steps"] == b["summary"].attrs["steps"]
+
+
+def test_a_resume_refuses_an_hdf5_file_another_run_wrote(tmp_path):
+    # The checkpoint and the file carry the run's id: another run's file at that path (the same
+    # command run again included: it is another run, with its own attributes) is refused and kept.
+    args = ["run", "sleigh_chain", "--set", "bodies=5", "--out", str(tmp_path / "o.h5")]
+    assert cli(*args, "--t-end", "2", "--checkpoint", str(tmp_path / "ck.h5")).returncode == 0
+    assert cli(*args, "--t-end", "4").returncode == 0
+    before = (tmp_path / "o.h5").read_bytes()
+    done = cli("run", "--resume", str(tmp_path / "ck.h5"), "--t-end", "3")
+    assert done.returncode == 1 and "it is not the file this run wrote (its run_id is" in done.stderr, done.stderr
+    assert (tmp_path / "o.h5").read_bytes() == before
+
+
 def test_files_say_what_they_hold(tmp_path):
     # The dt and t_end used (the scene's defaults here, not sentinels), the steps, the version and
     # the checkout's revision, the units convention and the command that made the file.

@@ -32,8 +32,14 @@ def test_load_gives_back_the_run(tmp_path, ext):
         for key, value in r.summary.items():  # every summary value but the timings
             if key not in ("wall_s", "setup_s", "ns_per_step", "ns_per_body_step"):
                 assert back.summary[key] == value or (value != value and back.summary[key] != back.summary[key]), key
+        assert back.status == "ok" and repr(back) == repr(r)
+        with h5py.File(path, "r") as f:  # the file's wall_s is the run's but its closing (was 0)
+            assert 0 < f["summary"].attrs["wall_s"] <= r.summary["wall_s"]
     else:
         assert back.p is None and back.gap is None and back.summary == {}
+        # No summary to show: repr and status say so (both raised KeyError).
+        assert back.status is None and repr(back) == "<nonholo.RunResult: %d frames x 12 coordinates, no summary>" % (
+            r.t.shape[0])
 
 
 @pytest.mark.parametrize("ext", ["csv", "h5"])
@@ -47,6 +53,7 @@ def test_load_gives_back_the_batch(tmp_path, ext):
             assert same(back.columns[name], column), name
         else:
             assert list(back.columns[name]) == list(column), name
+    assert repr(back) == (repr(b) if ext == "h5" else "<nonholo.BatchResult: 5 trajectories, no summary>")
 
 
 def test_load_refuses_what_it_cannot_read(tmp_path):

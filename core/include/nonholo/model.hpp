@@ -104,6 +104,10 @@ struct RigidBlock {
   Eigen::Matrix3d inertia, inverse_inertia;
   ///@}
   bool isotropic = false;  ///< inertia = J Id exactly: the Legendre transforms have closed forms
+  /// 0, or e when the inertia's largest entry is 2^e with |e| > 64: the Legendre transforms then
+  /// solve at unit scale (divided by 2^e, exactly), where their Newton determinant (the cube of
+  /// the moments) neither under- nor overflows.
+  int scale_exponent = 0;
 };
 
 /// J(q, p) with a name. With a generator (a horizontal symmetry declared through
@@ -227,6 +231,13 @@ class Model {
   /// Whether the explicit step can stream this model body by body (element_set.hpp's chain
   /// layout): the banded backend is then chosen by Backend::Auto.
   bool is_chain() const;
+  /// What in the model's structure makes its steps slower than they could be, for the user to
+  /// see ("" when nothing): bodies and rows that make a chain in an order the fused chain step
+  /// does not read (it then takes the general path, 3 to 4 times slower per body-step), or a
+  /// body touched by so many rows (a hub hitched to hundreds of bodies) that C has a dense block
+  /// whose factorisation, every step, costs the cube of their number. The run prints it as a
+  /// warning; a model built in code reads it here.
+  const std::string& performance_note() const { return performance_note_; }
 
   /// Sparse products with the one-form values (nnz entries, pattern order).
   ///@{
@@ -239,6 +250,7 @@ class Model {
   Model() = default;
 
   std::vector<Body> bodies_;
+  std::string performance_note_;  // ModelBuilder::finish
   int num_configuration_ = 0;
   detail::NameStore names_;
   struct LazyNames;  // model.cpp: a once_flag and names_ as strings; shared by copies of the model

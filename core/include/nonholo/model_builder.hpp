@@ -174,6 +174,7 @@ class ModelBuilder {
   void check_rigid_arm(const Describe& who, int body, double radius) const;
   Model finish(Model model, std::shared_ptr<detail::ElementSet> elements) const;
   void build_elements(Model& model, std::shared_ptr<detail::ElementSet> set) const;
+  static void note_dense_block(Model& model);  // Model::performance_note for a hub body
 };
 
 }  // namespace nonholo

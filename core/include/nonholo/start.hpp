@@ -21,12 +21,16 @@ enum class InitialMultiplier {
 struct StartOptions {
   InitialMultiplier multiplier = InitialMultiplier::Continuous;  ///< how lambda~_0 is set
   double min_pivot_ratio = 1e-12;  ///< smallest accepted pivot of C(q0) relative to its diagonal
+  /// Largest accepted |gap| of a holonomic row (a closed hitch) at q0, relative to 1 + |q0|_inf,
+  /// as scene files check theirs. An open hitch is refused: the first step would close it with a
+  /// velocity kick of 2 gap / h. Infinity lets the step close any gap.
+  double max_gap = 1e-9;
 };
 
 /// Projects the velocity guess M-orthogonally onto D(q0): p~_0 = P* M v_guess, then sets
 /// lambda~_0 as asked. q0 has n_q entries, v_guess n_v (a rigid body: Omega in the body frame,
 /// then the centre's velocity); each rigid body's quaternion must have norm 1 to within 1e-6
-/// and is normalised.
+/// and is normalised. Holonomic rows must hold at q0 (StartOptions::max_gap).
 State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
                           ConstVecRef v_guess, const StartOptions& options = {});
 

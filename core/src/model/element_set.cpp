@@ -130,4 +130,17 @@ void ElementSet::force(double t, ConstVecRef q, VecRef out) const {
   if (has_rigid_forces()) rigid_forces(*this, t, q.data(), out.data());
 }
 
+std::string ElementSet::describe(std::size_t r) const {
+  const ElementRow e = row(r);
+  const auto k = static_cast<std::size_t>(e.element);
+  if (e.kind == ElementRow::Knife && k < knife_edges.size())
+    return "the knife edge on body " + std::to_string(knife_edges[k].body);
+  if ((e.kind == ElementRow::HitchX || e.kind == ElementRow::HitchY) && k < hitches.size())
+    return "the hitch with rear body " + std::to_string(hitches[k].rear) + " and front body " +
+           std::to_string(hitches[k].front) + (e.kind == ElementRow::HitchX ? ", its x row" : ", its y row");
+  if (e.kind == ElementRow::Rod && k < rods.size())
+    return "the rod between body " + std::to_string(rods[k].first) + " and body " + std::to_string(rods[k].second);
+  return "";
+}
+
 }  // namespace nonholo::detail

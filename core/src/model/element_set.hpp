@@ -8,6 +8,7 @@
 #include <nonholo/types.hpp>
 
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace nonholo::detail {
@@ -86,6 +87,9 @@ struct ElementSet {
     static constexpr ElementRow::Kind kinds[3] = {ElementRow::Knife, ElementRow::HitchX, ElementRow::HitchY};
     return {kinds[r % 3], static_cast<int>(r / 3)};
   }
+  // What row r is, for a message: "the hitch with rear body 2 and front body 3, its x row";
+  // "" for the rows of rigid-body elements (their callers name them).
+  std::string describe(std::size_t r) const;
   int value_start(std::size_t r) const {
     if (rows_implied == Implied::None) return value_offset[r];
     if (rows_implied == Implied::Knives) return static_cast<int>(3 * r);

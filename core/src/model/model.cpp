@@ -153,7 +153,9 @@ std::string_view Model::row_label_view(int r) const {
 }
 
 std::string Model::describe_row(int r) const {
-  const std::string label = row_label(r);
+  std::string label = row_label(r);
+  if (label.empty() && elements_ && r >= 0 && static_cast<std::size_t>(r) < elements_->num_rows())
+    label = elements_->describe(static_cast<std::size_t>(r));  // an element's row: which element
   return "one-form row " + std::to_string(r) + (label.empty() ? "" : " (" + label + ")");
 }
 

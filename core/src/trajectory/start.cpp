@@ -248,6 +248,28 @@ void check_callbacks_fill(const Model& model, Workspace& ws, double t0, ConstVec
   }
 }
 
+// The holonomic rows hold at q0: an open hitch (a gap of 6 was accepted, and the first step
+// then advised a smaller step, where scene files refuse it) is refused, naming the row.
+void check_gaps_closed(const Model& model, Workspace& ws, ConstVecRef q0, double max_gap) {
+  if (model.num_holonomic() == 0 || !(max_gap < std::numeric_limits<double>::infinity())) return;
+  if (!(max_gap >= 0.0))
+    throw std::invalid_argument("start_from_velocity: StartOptions::max_gap = " + std::to_string(max_gap) +
+                                " must be at least 0 (infinity: the first step closes any gap)");
+  Vector local;
+  Vector& g = sized_buffer(ws.gap, local, model.num_holonomic());
+  model.gap(q0, g);
+  const double bound = max_gap * (1.0 + q0.lpNorm<Eigen::Infinity>());
+  Eigen::Index worst = 0;
+  const double largest = g.cwiseAbs().maxCoeff(&worst);
+  if (largest <= bound) return;
+  std::ostringstream os;
+  os << "start_from_velocity: a holonomic row is open at q0: " << model.describe_row(model.holonomic_rows()[worst])
+     << " has gap " << g[worst] << ", above max_gap " << max_gap << " x (1 + |q0|_inf) = " << bound
+     << ": place the bodies so that the hitch's points meet (the first step would close the gap with a velocity "
+        "kick of 2 gap / h), or set StartOptions::max_gap to infinity to let it";
+  throw std::invalid_argument(os.str());
+}
+
 }  // namespace
 
 State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVecRef q0,
@@ -260,6 +282,7 @@ State start_from_velocity(const Model& model, Workspace& ws, double t0, ConstVec
   State s = allocate_state(model, t0, q0);  // q0's quaternions normalised in s.q: no copy of q0 besides
   normalise_quaternions("q0", s.q, model);
   check_callbacks_fill(model, ws, t0, s.q);
+  check_gaps_closed(model, ws, s.q, options.max_gap);
 
   model.mass().multiply(v_guess.data(), s.p.data());
   check(detail::project_momentum(model, ws, s.q, s.p, s.p, options.min_pivot_ratio), ws,

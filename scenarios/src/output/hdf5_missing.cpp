@@ -19,10 +19,11 @@ namespace {
 
 struct Hdf5RunWriter::Impl {};
 
-Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig&, const std::string&, const Parameters&, long) {
+Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig&, const std::string&, const Parameters&, long,
+                             const std::string&) {
   missing(path);
 }
-Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long) { missing(path); }
+Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long, const std::string&) { missing(path); }
 Hdf5RunWriter::~Hdf5RunWriter() = default;
 long Hdf5RunWriter::flush_to_disk() { return 0; }
 void Hdf5RunWriter::begin(const std::vector<std::string>&) {}
@@ -31,7 +32,8 @@ void Hdf5RunWriter::frame(double, ConstVecRef, ConstVecRef, const Diagnostics&) 
 void Hdf5RunWriter::end() {}
 void Hdf5RunWriter::finish(const RunSummary&) {}
 
-void write_checkpoint(const std::string& path, const CheckpointInfo&, const std::string&, ConstVecRef, ConstVecRef) {
+void write_checkpoint(const std::string& path, const CheckpointInfo&, const std::string&, ConstVecRef, ConstVecRef,
+                      FileLock*) {
   throw std::invalid_argument("--checkpoint " + path +
                               ": this nonholo was built without HDF5, which checkpoints need (install libhdf5-dev, "
                               "Debian, and rebuild)");

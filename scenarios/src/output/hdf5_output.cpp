@@ -195,12 +195,13 @@ struct Hdf5RunWriter::Impl {
 };
 
 Hdf5RunWriter::Hdf5RunWriter(const std::string& path, const RunConfig& config, const std::string& scene,
-                             const Parameters& params, long steps)
+                             const Parameters& params, long steps, const std::string& run_id)
     : impl_(std::make_unique<Impl>()) {
   const Quiet quiet;
   impl_->path = path;
   impl_->file = create_file(path, true);
   attribute(impl_->file.get(), path, "format", std::string("nonholo run"));
+  attribute(impl_->file.get(), path, "run_id", run_id);  // the checkpoint's too: whose file it is
   describe_run(impl_->file.get(), path, config, scene, &params, steps);
 }
 
@@ -213,16 +214,51 @@ Hdf5RunWriter::~Hdf5RunWriter() {
   }
 }
 
-Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long frames) : impl_(std::make_unique<Impl>()) {
+namespace {
+// The run id a run's file carries ("" when none), read without writing: the file may be another's.
+std::string run_id_of(const std::string& path) {
+  hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) f = H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, H5P_DEFAULT);  // killed while writing
+  if (f < 0) throw std::invalid_argument("cannot continue '" + path + "': not an HDF5 file, or a damaged one");
+  Handle file(f, H5Fclose);
+  if (H5Aexists(f, "run_id") <= 0) return "";
+  Handle a = check(H5Aopen(f, "run_id", H5P_DEFAULT), H5Aclose, path, "open attribute run_id");
+  Handle type = string_type(path);
+  char* text = nullptr;
+  check(H5Aread(a.get(), type.get(), &text), path, "read attribute run_id");
+  std::string id = text ? text : "";
+  H5free_memory(text);
+  return id;
+}
+}  // namespace
+
+Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long frames, const std::string& run_id)
+    : impl_(std::make_unique<Impl>()) {
   const Quiet quiet;
   impl_->path = path;
   impl_->reopened = true;
   impl_->frames_at_open = static_cast<hsize_t>(frames);
-  // A file killed while SWMR writing keeps that mark: cleared, as h5clear -s would.
+  const std::string found = run_id_of(path);
+  if (found != run_id)
+    throw std::invalid_argument("cannot continue '" + path + "': it is not the file this run wrote (its run_id is " +
+                                (found.empty() ? std::string("missing") : "'" + found + "'") +
+                                ", the checkpoint's '" + run_id +
+                                "': another run has written it since); it is left as it is: give the run's file "
+                                "back, or start the run afresh");
+  // A file killed while SWMR writing keeps that mark, and HDF5 refuses to open it for writing:
+  // cleared, as h5clear -s does (a private property of HDF5 1.10's file access lists). Only
+  // this run writes it: the output's lock is held (file_lock.hpp).
   Handle fapl = check(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, path, "make a file access list");
   check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_LATEST, H5F_LIBVER_LATEST), path, "ask for the latest format");
+  hbool_t clear = 1;
+  const bool can_clear = H5Pexist(fapl.get(), "clear_status_flags") > 0 &&
+                         H5Pset(fapl.get(), "clear_status_flags", &clear) >= 0;
   const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get());
-  if (f < 0) throw std::invalid_argument("cannot continue '" + path + "': cannot open it for writing (HDF5)");
+  if (f < 0)
+    throw std::invalid_argument("cannot continue '" + path + "': cannot open it for writing (HDF5)" +
+                                (can_clear ? std::string()
+                                           : "; if the run that wrote it was killed, `h5clear -s " + path +
+                                                 "` (Debian's hdf5-tools) clears the mark it left"));
   impl_->file = Handle(f, H5Fclose);
   // The summary of the run that wrote the checkpoint's end, if it finished: finish() writes anew.
   if (H5Lexists(f, "summary", H5P_DEFAULT) > 0) check(H5Ldelete(f, "summary", H5P_DEFAULT), path, "remove /summary");

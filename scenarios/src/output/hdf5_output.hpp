@@ -31,13 +31,15 @@ class Hdf5RunWriter final : public FrameSink {
  public:
   // Creates the file (throws std::invalid_argument when it cannot, or without HDF5) and
   // writes the attributes known before the run: `config` with the dt and t_end used, `steps`
-  // of dt (output intervals for adaptive steps).
+  // of dt (output intervals for adaptive steps), the run's `run_id`.
   Hdf5RunWriter(const std::string& path, const RunConfig& config, const std::string& scene,
-                const Parameters& params, long steps);
-  // Continues the file of a run resumed from a checkpoint that counted `frames` frames: frames
-  // after those are dropped, the summary is written anew by finish(). Throws
-  // std::invalid_argument when the file is missing, unwritable or holds fewer frames.
-  Hdf5RunWriter(const std::string& path, long frames);
+                const Parameters& params, long steps, const std::string& run_id);
+  // Continues the file of run `run_id`, resumed from a checkpoint that counted `frames` frames:
+  // frames after those are dropped, the summary is written anew by finish(). A file left marked
+  // open by a killed run is taken up (the mark cleared, as `h5clear -s` does). Throws
+  // std::invalid_argument when the file is missing, unwritable, another run's or holds fewer
+  // frames.
+  Hdf5RunWriter(const std::string& path, long frames, const std::string& run_id);
   ~Hdf5RunWriter() override;  // closes the file if finish() did not
   void begin(const std::vector<std::string>& coordinates) override;
   void velocities(const std::vector<std::string>& names) override;

@@ -168,7 +168,17 @@ PreparedRun prepare_run(const RunConfig& config) {
 RunSummary run_scene(const RunConfig& given) {
   const auto start_time = std::chrono::steady_clock::now();
   std::string resume;
-  if (!given.resume_path.empty()) resume = read_checkpoint(given.resume_path);
+  if (!given.resume_path.empty()) {
+    CheckpointInfo at;
+    resume = read_checkpoint(given.resume_path, &at);
+    // An end before the checkpoint ran no step and ended ok at the checkpoint's time.
+    if (given.t_end >= 0.0 && given.t_end < at.t) {
+      std::ostringstream os;
+      os << "--t-end " << given.t_end << " is before the checkpoint's t = " << at.t << " (" << given.resume_path
+         << "): a resumed run goes on from there; give a later end, or none for the run's own";
+      throw std::invalid_argument(os.str());
+    }
+  }
   const RunConfig config = resume.empty() ? given : resumed_config(given, resume);
   PreparedRun run = prepare_run(config);
   run.resume = std::move(resume);
@@ -177,6 +187,7 @@ RunSummary run_scene(const RunConfig& given) {
   Progress progress(run.info.name, run.steps);
   TrajectoryHooks hooks;
   hooks.progress = hooks.setup_status = &progress;
+  hooks.started = start_time;
   RunSummary summary = integrate_scene(run, params, config, hooks).summary;
   progress.finish();
   summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();

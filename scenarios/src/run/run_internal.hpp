@@ -3,7 +3,9 @@
 // then one trajectory at a time from a given set of parameters (integrate_scene).
 #include <nonholo/scenarios/run_types.hpp>
 
+#include <chrono>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,11 +46,14 @@ struct TrajectoryHooks {
   std::function<void(const Model&)> on_model;
   bool final_q = false;      // TrajectoryResult::final_q
   bool final_state = false;  // TrajectoryResult::final_p and the names (`nonholo batch --states`)
+  // When the run began (run_scene's start, before its checkpoint was read): the HDF5 file's
+  // wall_s counts from it. Unset: the trajectory's own start.
+  std::optional<std::chrono::steady_clock::time_point> started;
 };
 
 // What one trajectory gives back.
 struct TrajectoryResult {
-  RunSummary summary;  // wall_s left 0
+  RunSummary summary;  // wall_s: up to the output file's closing (the caller sets its own)
   Vector final_q, final_p;
   std::vector<std::string> coordinates, velocities;  // the names of final_q's and final_p's entries
 };

@@ -12,7 +12,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <cstdio>
 #include <limits>
+#include <random>
 #include <sstream>
 
 #include "output/batch_row.hpp"
@@ -76,6 +78,16 @@ std::string describe(const Diagnostics& d) {
   return os.str();
 }
 
+// A fresh run's id: 64 random bits as 16 hex digits (written into its HDF5 output and checkpoints,
+// so that a resume knows its own file from another run's).
+std::string new_run_id() {
+  std::random_device random;
+  const std::uint64_t bits = (static_cast<std::uint64_t>(random()) << 32) ^ random();
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(bits));
+  return text;
+}
+
 // The order the accuracy check's advice assumes.
 int method_order(const RunConfig& config, const MethodChoice& choice) {
   if (config.method == "reflection") return choice.rattle.order;
@@ -91,6 +103,7 @@ void LoopState::save(OutArchive& a) const {
   a(d0.energy), a(d0.energy_post), a(d0.residual), a(d0.gap), a(power0), a(power);
   work.save(a);
   a(rest.energy), a(rest.speed), a(j0), a(lever_arm), a(difference), a(companion_failure), a(output_position);
+  a(static_cast<long>(output_tail)), a(run_id);  // (the hash's bits through a long)
   a(seconds);
 }
 
@@ -103,6 +116,9 @@ void LoopState::load(InArchive& a) {
   a(rest.energy), a(rest.speed);
   a.resize_into(j0);
   a(lever_arm), a(difference), a(companion_failure), a(output_position);
+  long tail = 0;
+  a(tail), a(run_id);
+  output_tail = static_cast<std::uint64_t>(tail);
   a(seconds);
 }
 
@@ -113,6 +129,9 @@ RunLoop::RunLoop(const PreparedRun& run, const Parameters& params, const RunConf
 TrajectoryResult RunLoop::run() {
   run_start_ = Clock::now();
   set_up();
+  // Ctrl-C during a long set-up (a 10^7-body chain's: a minute) ends the run at the next phase,
+  // before anything is written (it waited for the whole set-up and wrote the first frame).
+  if (stop_signalled()) return interrupted_in_set_up();
   read_loop_state();
   open_outputs();
   describe_run();
@@ -143,6 +162,7 @@ void RunLoop::set_up() {
   };
   status("building model");
   setup_.emplace(run_.info.build(params_));
+  if (stop_signalled()) return;  // run() reports it: no method is started
   bodies = setup_->model.num_bodies();
   if (hooks_.on_model) hooks_.on_model(setup_->model);
   const SetupPhase phase = status;
@@ -184,16 +204,23 @@ void RunLoop::read_loop_state() {
 }
 
 // --out: CSV, or HDF5 by its extension (hdf5_output.hpp); the caller's sink gets the frames too.
+// The output and the checkpoint are locked first, before a file is cut or created: a second run
+// writing either is refused (file_lock.hpp).
 void RunLoop::open_outputs() {
   const Model& model = setup_->model;
   const bool resuming = archive_ != nullptr;
-  if (is_hdf5_path(config_.csv_path))
-    h5_ = resuming ? std::make_unique<Hdf5RunWriter>(config_.csv_path, loop_.output_position)
-                   : std::make_unique<Hdf5RunWriter>(config_.csv_path, resolved(config_, run_), run_.info.name,
-                                                     params_, run_.steps);
-  else if (!config_.csv_path.empty())
-    csv_ = resuming ? std::make_unique<CsvWriter>(config_.csv_path, loop_.output_position)
-                    : std::make_unique<CsvWriter>(config_.csv_path, model.coordinate_names());
+  const std::string& out = config_.csv_path;
+  if (!out.empty() && out != "-") output_lock_ = FileLock::take(out, "output");
+  if (!config_.checkpoint_path.empty()) checkpoint_lock_ = FileLock::take(config_.checkpoint_path, "checkpoint");
+  if (!resuming && (!out.empty() || !config_.checkpoint_path.empty())) loop_.run_id = new_run_id();  // (not per row of a batch)
+  if (is_hdf5_path(out))
+    h5_ = resuming ? std::make_unique<Hdf5RunWriter>(out, loop_.output_position, loop_.run_id)
+                   : std::make_unique<Hdf5RunWriter>(out, resolved(config_, run_), run_.info.name, params_,
+                                                     run_.steps, loop_.run_id);
+  else if (!out.empty())
+    csv_ = resuming ? std::make_unique<CsvWriter>(out, loop_.output_position, loop_.output_tail)
+                    : std::make_unique<CsvWriter>(out, model.coordinate_names());
+  if (!out.empty() && out != "-" && !output_lock_.held()) output_lock_ = FileLock::take(out, "output");  // made now
   for (FrameSink* s : {static_cast<FrameSink*>(h5_.get()), config_.sink})
     if (s) sinks_.push_back(s);
   for (FrameSink* s : sinks_) {
@@ -211,6 +238,7 @@ void RunLoop::describe_run() {
   summary.backend = runner_->backend();
   summary.threads = runner_->threads();
   add_warning(summary, thread_warning_);
+  add_warning(summary, model.performance_note());  // a scene file's chain out of order, a hub body
   // The reference methods treat hitch rows as velocity constraints, closed by --project.
   summary.hitch = reflection_ ? to_string(config_.hitch)
                               : !reference_method(config_.method) ? "oneform"
@@ -472,7 +500,10 @@ void RunLoop::checkpoint_if_due(long k) {
 // The checkpoint: the loop's state at the end of step k, the outputs flushed first so that the
 // position it records is on disk.
 void RunLoop::write_checkpoint_now(long k) {
-  if (csv_) loop_.output_position = csv_->flush_to_disk();
+  if (csv_) {
+    loop_.output_position = csv_->flush_to_disk();
+    loop_.output_tail = csv_->tail_hash();
+  }
   if (h5_) loop_.output_position = h5_->flush_to_disk();
   loop_.k = k;
   loop_.summary = summary_;
@@ -490,8 +521,8 @@ void RunLoop::write_checkpoint_now(long k) {
   if (companion_) companion_->save(out);
   stability_->save(out);
   precision_->save(out);
-  write_checkpoint(config_.checkpoint_path, {run_.info.name, config_.method, runner_->t(), k}, out.bytes(),
-                   runner_->q(), runner_->p());
+  write_checkpoint(config_.checkpoint_path, {run_.info.name, config_.method, runner_->t(), k, loop_.run_id},
+                   out.bytes(), runner_->q(), runner_->p(), &checkpoint_lock_);
   last_checkpoint_ = Clock::now();
 }
 
@@ -581,8 +612,27 @@ TrajectoryResult RunLoop::result() {
     r.coordinates = setup_->model.coordinate_names();
     r.velocities = setup_->model.velocity_names();
   }
+  // The file's wall_s: all of the run but the closing itself (it was 0: set by the caller, after).
+  summary_.wall_s = std::chrono::duration<double>(Clock::now() - hooks_.started.value_or(run_start_)).count();
   if (h5_) h5_->finish(summary_);  // the summary's attributes, then the file is closed
   r.summary = std::move(summary_);
+  return r;
+}
+
+// A stop request during set-up: status=interrupted, no step taken and nothing written.
+TrajectoryResult RunLoop::interrupted_in_set_up() {
+  TrajectoryResult r;
+  RunSummary& summary = r.summary;
+  summary.scene = run_.info.name;
+  summary.method = config_.method;
+  summary.dt = run_.dt;
+  summary.status = Status::Interrupted;
+  summary.message = (interrupt_requested() ? std::string("interrupted (") + interrupt_name() + ")"
+                                           : std::string("interrupted by the caller")) +
+                    " during the set-up (" + (runner_ ? "after the method's start" : "after building the model") +
+                    "): no step was taken and no output written";
+  summary.error_estimate = std::numeric_limits<double>::quiet_NaN();  // nothing compared
+  summary.setup_s = std::chrono::duration<double>(Clock::now() - run_start_).count();
   return r;
 }
 

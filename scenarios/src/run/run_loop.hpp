@@ -9,12 +9,14 @@
 #include <nonholo/scenarios/run_types.hpp>
 
 #include <chrono>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "output/csv_writer.hpp"
+#include "output/file_lock.hpp"
 #include "output/hdf5_output.hpp"
 #include "run/run_checks.hpp"
 #include "run/run_internal.hpp"
@@ -46,6 +48,8 @@ struct LoopState {
   double difference = 0.0;  // --error-estimate: max over the output times of |q - q^|_inf
   std::string companion_failure;
   long output_position = 0;  // CSV: bytes written; HDF5: frames
+  std::uint64_t output_tail = 0;  // CSV: the hash of its last bytes before output_position
+  std::string run_id;        // 16 random hex digits, a fresh run's: in its HDF5 output and checkpoints
   double seconds = 0.0;      // integration time so far (ns_per_step of a resumed run)
 
   void save(OutArchive& a) const;
@@ -73,6 +77,7 @@ class RunLoop {
   void close_outputs();  // the final checkpoint, estimates, the files closed
   void judge();          // the summary's last fields, warnings and the accuracy verdict
   TrajectoryResult result();
+  TrajectoryResult interrupted_in_set_up();  // a stop request before the first step's set-up ended
 
   // --- one step of the loop ---
   bool stop_requested(long k);       // Ctrl-C, the sink or the caller: status=interrupted
@@ -103,6 +108,7 @@ class RunLoop {
   LoopState loop_;
   RunSummary summary_;
 
+  FileLock output_lock_, checkpoint_lock_;  // no second run writes these while this one does
   std::unique_ptr<CsvWriter> csv_;
   std::unique_ptr<Hdf5RunWriter> h5_;
   std::vector<FrameSink*> sinks_;

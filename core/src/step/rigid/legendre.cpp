@@ -172,6 +172,15 @@ bool solve_legendre(RotationLagrangian rotation, const RigidBlock& body, double 
     w = Vec4(1.0, 0.0, 0.0, 0.0);
     return true;
   }
+  if (body.scale_exponent != 0) {
+    // Every transform is homogeneous in (I, h p): solved for the body divided by 2^e, exactly,
+    // the same rotation (a ball of mass and inertia 1e-150 or 1e160 failed here, blamed on h).
+    RigidBlock unit = body;
+    unit.inertia *= std::ldexp(1.0, -body.scale_exponent);
+    unit.inverse_inertia *= std::ldexp(1.0, body.scale_exponent);
+    unit.scale_exponent = 0;
+    return solve_legendre(rotation, unit, 1.0, std::ldexp(1.0, -body.scale_exponent) * hp, w, iterations);
+  }
   Vec3 x;
   switch (rotation) {
     case RotationLagrangian::MoserVeselov:

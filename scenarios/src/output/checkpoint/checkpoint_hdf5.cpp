@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace nonholo::scenarios {
@@ -53,7 +54,7 @@ T read_number(hid_t on, const std::string& path, const char* name, hid_t memory_
 }  // namespace
 
 void write_checkpoint(const std::string& path, const CheckpointInfo& info, const std::string& bytes, ConstVecRef q,
-                      ConstVecRef p) {
+                      ConstVecRef p, FileLock* lock) {
   ReplacingFile replacing(path);  // never a fixed name: a link planted there was followed
   const std::string& temporary = replacing.temporary();
   {
@@ -68,12 +69,15 @@ void write_checkpoint(const std::string& path, const CheckpointInfo& info, const
     attribute(f, temporary, "method", info.method);
     attribute(f, temporary, "t", info.t);
     attribute(f, temporary, "step", info.step);
+    attribute(f, temporary, "run_id", info.run_id);
     dataset(f, temporary, "bytes", H5T_STD_U8LE, H5T_NATIVE_UCHAR, bytes.data(), bytes.size());
     dataset(f, temporary, "q", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, q.data(), static_cast<hsize_t>(q.size()));
     dataset(f, temporary, "p", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, p.data(), static_cast<hsize_t>(p.size()));
     if (!file.reset()) fail(temporary, "close the file");
   }
+  FileLock fresh = lock ? FileLock::take(temporary, "checkpoint") : FileLock();
   replacing.commit();
+  if (lock) *lock = std::move(fresh);
 }
 
 std::string read_checkpoint(const std::string& path, CheckpointInfo* info) {
@@ -100,6 +104,7 @@ std::string read_checkpoint(const std::string& path, CheckpointInfo* info) {
     info->method = read_text(f, path, "method");
     info->t = read_number<double>(f, path, "t", H5T_NATIVE_DOUBLE);
     info->step = read_number<long>(f, path, "step", H5T_NATIVE_LONG);
+    info->run_id = read_text(f, path, "run_id");
   }
   if (H5Lexists(f, "bytes", H5P_DEFAULT) <= 0) not_a_checkpoint(path, "no dataset /bytes");
   Handle d = check(H5Dopen2(f, "bytes", H5P_DEFAULT), H5Dclose, path, "open /bytes");

@@ -6,6 +6,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -182,6 +183,14 @@ json parse_document(const std::string& text, const std::string& path) {
   if (text.size() > kMaxSceneFileBytes)
     throw std::invalid_argument(path + ": the text is " + std::to_string(text.size()) + " bytes; a scene file may be at most " +
                                 std::to_string(kMaxSceneFileBytes) + " bytes");
+  // nlohmann's lexer takes a NUL byte for the end of the input: what follows it was ignored.
+  if (const auto nul = text.find('\0'); nul != std::string::npos) {
+    const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(nul), '\n');
+    throw std::invalid_argument(path + ": line " + std::to_string(line) + " has a NUL byte (byte " +
+                                std::to_string(nul + 1) + " of " + std::to_string(text.size()) +
+                                "): a scene file is UTF-8 text, and the parser would have stopped there, ignoring "
+                                "the rest; remove it (a file saved in UTF-16, or a binary file, has them)");
+  }
   check_depth(text, path);
   DocumentBuilder builder(path, text);
   json::sax_parse(text, &builder);  // throws std::invalid_argument on any error
