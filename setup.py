@@ -22,6 +22,7 @@ from pathlib import Path
 
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
+from setuptools.command.sdist import sdist
 
 ROOT = Path(__file__).resolve().parent
 REUSE = os.environ.get("NONHOLO_CMAKE_BUILD_DIR")
@@ -83,6 +84,25 @@ class CMakeBuild(build_ext):
                 self.copy_file(str(package / "viewer" / name), str(target.parent / "viewer" / name))
 
 
+class SourceWithRevision(sdist):
+    """The source distribution with the checkout's git revision in GIT_REVISION: python3 -m build
+    makes the wheel from the sdist, which has no .git, and its nonholo said git_revision
+    "unknown" (cmake/GitRevision.cmake reads the file)."""
+
+    def make_release_tree(self, base_dir, files):
+        super().make_release_tree(base_dir, files)
+        if (ROOT / "GIT_REVISION").is_file():  # an sdist made from an sdist (as the CMake build, first)
+            revision = (ROOT / "GIT_REVISION").read_text().strip()
+        else:
+            done = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], cwd=ROOT, capture_output=True, text=True)
+            revision = done.stdout.strip() if done.returncode == 0 else ""
+        if revision:
+            target = Path(base_dir) / "GIT_REVISION"
+            if target.exists():
+                target.unlink()  # a hard link to the source's copy, made by make_release_tree
+            target.write_text(revision + "\n")
+
+
 # setuptools' scratch (build/, *.egg-info) out of the source tree's python/: into the reused CMake
 # tree, or build-wheel/ (ignored by git, as build*/).
 scratch = str(Path(REUSE).resolve() / "wheel") if REUSE else "build-wheel"
@@ -95,6 +115,6 @@ setup(
     packages=["nonholo"],
     package_data={"nonholo": ["py.typed", "viewer/viewer.html"]},  # _core's module and stub come from build_ext
     ext_modules=[Extension("nonholo._core", sources=[])],
-    cmdclass={"build_ext": CMakeBuild},
+    cmdclass={"build_ext": CMakeBuild, "sdist": SourceWithRevision},
     options={"build": {"build_base": scratch}, "egg_info": {"egg_base": scratch}},
 )

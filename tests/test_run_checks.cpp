@@ -138,6 +138,19 @@ TEST(RunChecks, OverflowingStartIsRefused) {
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(summary_of(r.out).at("status"), "non-finite-state");
   EXPECT_THAT(r.err, HasSubstr("the initial state is out of range: energy inf"));
+  // The forces out of range, the state not: the message named the initial velocities.
+  const auto forced = run_cli({"run", "wheeled_train", "--set", "bodies=5", "--set", "force=1e200"});
+  EXPECT_EQ(forced.code, 2);
+  EXPECT_EQ(summary_of(forced.out).at("status"), "non-finite-state");
+  EXPECT_THAT(forced.err, HasSubstr("the applied forces are out of range at the start: energy 0.246"));
+  EXPECT_THAT(forced.err, HasSubstr("reduce the forces, or choose units that bring them nearer 1"));
+  // A state whose step overflows in the restart's arithmetic (v0 = 1e100: the constraint forces
+  // grow as the speed squared): it advised "restart less often or not at all".
+  const auto fast = run_cli({"run", "sleigh", "--set", "v0=1e100"});
+  EXPECT_EQ(fast.code, 2);
+  EXPECT_THAT(fast.err, HasSubstr("restart-failed: the restart's arithmetic overflowed (post-momentum energy 5e+199"));
+  EXPECT_THAT(fast.err, HasSubstr("reduce the step size by orders of magnitude, or choose units"));
+  EXPECT_THAT(fast.err, ::testing::Not(HasSubstr("restart less often")));
 }
 
 TEST(RunChecks, EnergyBlowUpStopsTheRun) {

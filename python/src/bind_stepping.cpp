@@ -235,7 +235,7 @@ void bind_steps(py::module_& m) {
         R"(The state at (t0, q0) with the velocity guess v0 projected M-orthogonally onto D(q0). q0 has
 n_q entries (a rigid body's quaternion of norm 1 within 1e-6, normalised here), v0 n_v (a rigid
 body: Omega in its body frame, then its centre's velocity). Closed hitches must hold at q0: a
-gap above max_gap x (1 + |q0|_inf) is refused (ValueError naming the hitch); max_gap=inf lets
+gap above max_gap x (1 + max(abs(q0))) is refused (ValueError naming the hitch); max_gap=inf lets
 the first step close it.)");
   m.def("start_from_two_points",
         [](const PyModel& model, Workspace& ws, double t0, const Vector& q0, const Vector& q1, double h,

@@ -83,3 +83,24 @@ def test_mypy_finds_the_installed_packages_types(venv, tmp_path):
     done = subprocess.run([str(a) for a in mypy + [wrong]], capture_output=True, text=True, env=CLEAN, cwd="/")
     assert done.returncode == 1 and "wrong.py:2: error" in done.stdout and "wrong.py:3: error" in done.stdout, \
         done.stdout + done.stderr
+
+
+def test_the_source_distribution_carries_the_git_revision(tmp_path):
+    # python3 -m build makes the wheel from the sdist, which has no .git: its nonholo said
+    # git_revision "unknown". The sdist now holds GIT_REVISION, which the CMake build reads
+    # (cmake/GitRevision.cmake, run here as a script on the unpacked sdist).
+    import tarfile
+    head = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], cwd=ROOT, capture_output=True, text=True)
+    if head.returncode != 0:
+        pytest.skip("not a git checkout")
+    run(sys.executable, "-m", "build", "--no-isolation", "--sdist", "--outdir", tmp_path, ROOT)
+    (archive,) = tmp_path.glob("nonholo-*.tar.gz")
+    with tarfile.open(archive) as tar:
+        tar.extractall(tmp_path / "src")
+    (tree,) = (tmp_path / "src").glob("nonholo-*")
+    assert (tree / "GIT_REVISION").read_text().strip() == head.stdout.strip()
+    shown = subprocess.run(["cmake", "-DSOURCE=%s" % tree, "-P", str(ROOT / "cmake" / "GitRevision.cmake")],
+                           capture_output=True, text=True)
+    assert shown.stderr.strip() == "git revision: " + head.stdout.strip(), shown.stderr
+    assert not (ROOT / "GIT_REVISION").exists()  # written into the sdist only
+

@@ -43,11 +43,13 @@ Status implicit_restart(const Model& model, ImplicitWorkspace& ws, ConstVecRef q
   double s = 1.0, plain = 0.0;
   if (!scale_keeping_energy(model, q, ws.mode_a, ws.p_tilde, ws.mode_c, target, apply_minv, ws.scratch, ws.y,
                             flat_previous_potential(model, q, h), s,
-                            plain))
+                            plain)) {
+    if (!std::isfinite(plain)) return ws.fail(Status::RestartFailed, NONHOLO_OVERFLOWING_RESTART, target, plain);
     return ws.fail(Status::RestartFailed,
                    "no rescale of p~ keeps the post-momentum energy %.17g (energy change of the plain restart "
                    "%.3g): restart less often or not at all (ImplicitOptions::restart, --restart)",
                    target, plain);
+  }
   ws.p_next = ws.mode_a + s * ws.p_tilde + (s * s) * ws.mode_c + half * ws.force;  // p+ = p_- + (h/2) f
   return Status::Ok;
 }

@@ -486,7 +486,9 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
   c *= -half;
 
   double s = 1.0, plain = 0.0;
-  if (!scale_keeping_energy(model, q, a, b, c, target, apply_minv, ws.scratch_n, ws.scratch_n2, previous, s, plain))
+  if (!scale_keeping_energy(model, q, a, b, c, target, apply_minv, ws.scratch_n, ws.scratch_n2, previous, s, plain)) {
+    if (!std::isfinite(plain))  // not the restarts' fault: "restart less often" misled (v0 = 1e100)
+      return ws.fail(Status::RestartFailed, NONHOLO_OVERFLOWING_RESTART, target, plain);
     return ws.fail(Status::RestartFailed,
                    all_seen ? "no multiplier keeps the post-momentum energy %.17g (energy change of the plain "
                               "restart %.3g) where the momentum maps fix p~: restart less often or not at all "
@@ -494,6 +496,7 @@ Status rescaled_restart(const Model& model, Workspace& ws, ConstVecRef q, VecRef
                             : "no rescale of p~ keeps the post-momentum energy %.17g (energy change of the plain "
                               "restart %.3g): restart less often or not at all (RattleOptions::restart, --restart)",
                    target, plain);
+  }
 
   // The new momentum; with momentum maps, checked before anything is written.
   if (all_seen) {

@@ -184,6 +184,16 @@ inline auto flat_previous_potential(const Model& model, ConstVecRef q, double h)
   };
 }
 
+// The message of a restart whose arithmetic overflowed (its plain energy change not finite), for
+// ws.fail with the target energy and the change: the state is too fast or too forced for the step,
+// whose quadratic terms (h times the bias, which grows as the speed squared) leave the doubles'
+// range. (It advised "restart less often".) A literal: a failing step allocates nothing either.
+#define NONHOLO_OVERFLOWING_RESTART                                                                           \
+  "the restart's arithmetic overflowed (post-momentum energy %.3g, energy change of the plain restart %.3g): "  \
+  "the state is too fast or too forced for this step size (the step's quadratic terms, h times the constraint " \
+  "forces that grow as the speed squared, leave the range of doubles); reduce the step size by orders of "     \
+  "magnitude, or choose units that bring the speeds and forces nearer 1"
+
 // The scale s next to 1 that gives the arriving post-momentum p_-(s) = a + s b + s^2 c the
 // energy `target` (arriving_energy): (1/2)|p_-(s)|^2_{M^-1} is a quartic in s, the potential
 // is evaluated at each trial (through previous(), as arriving_energy). False when no positive scale does it; `plain` is then the

@@ -284,9 +284,15 @@ void RunLoop::start() {
   if (h5_) h5_->flush_to_disk();  // a valid file from the start (HDF5 writes its metadata at a flush)
   if (!finite(d0)) {
     summary_.status = Status::NonFiniteState;
-    summary_.message = "the initial state is out of range: " + describe(d0) +
-                       ": check the scene's initial positions and velocities (a speed of 1e155 already "
-                       "overflows the energy)";
+    // A finite energy with a forced model: the forces overflow the half kick's energy, not the
+    // state (it blamed the initial velocities for a thrust of 1e200).
+    summary_.message = std::isfinite(d0.energy) && forced_
+                           ? "the applied forces are out of range at the start: " + describe(d0) +
+                                 ": the energy after the step's half kick of h F overflows (h |F| near 1e154 or "
+                                 "above); reduce the forces, or choose units that bring them nearer 1"
+                           : "the initial state is out of range: " + describe(d0) +
+                                 ": check the scene's initial positions and velocities (a speed of 1e155 already "
+                                 "overflows the energy)";
   }
   if (summary_.status == Status::Ok) summary_.status = stability_->check(*runner_, 0, summary_.message);
   if (summary_.status == Status::Ok)
