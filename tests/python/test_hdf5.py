@@ -202,10 +202,13 @@ def test_a_run_killed_with_hdf5_output_resumes_bit_for_bit(tmp_path):
     child.wait()
     with pytest.raises(OSError):
         h5py.File(out, "r")  # the mark a killed writer leaves (swmr=True or nonholo.load read it)
-    with h5py.File(checkpoint, "r") as f:
+    with h5py.File(checkpoint, "r") as f, h5py.File(out, "r", swmr=True) as killed:
         t = float(f.attrs["t"])
-        assert text(f.attrs["run_id"]) == text(h5py.File(out, "r", swmr=True).attrs["run_id"])
-    end = repr(round(t + 0.6, 10))
+        assert text(f.attrs["run_id"]) == text(killed.attrs["run_id"])
+        end = repr(round(t + 0.6, 10))
+        # A reader holding the file (HDF5 locks what it reads) makes the resume fail: it says so.
+        held = cli("run", "--resume", str(checkpoint), "--t-end", end)
+        assert held.returncode == 1 and "another program has it open (h5py, HDFView" in held.stderr, held.stderr
     resumed = cli("run", "--resume", str(checkpoint), "--t-end", end)
     assert resumed.returncode == 0, resumed.stderr
     whole = cli(*args, "--t-end", end, "--out", str(tmp_path / "whole.h5"))

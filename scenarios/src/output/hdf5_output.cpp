@@ -9,7 +9,12 @@
 #include <nonholo/build_config.hpp>
 #include <nonholo/version.hpp>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -215,6 +220,16 @@ Hdf5RunWriter::~Hdf5RunWriter() {
 }
 
 namespace {
+// Whether another process holds HDF5's own lock on the file (flock: a reader, h5py say, keeps it
+// while the file is open), which makes opening it for writing fail.
+bool held_by_a_reader(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);  // (a lock taken here goes with it)
+  return held;
+}
+
 // The run id a run's file carries ("" when none), read without writing: the file may be another's.
 std::string run_id_of(const std::string& path) {
   hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
@@ -255,10 +270,13 @@ Hdf5RunWriter::Hdf5RunWriter(const std::string& path, long frames, const std::st
                          H5Pset(fapl.get(), "clear_status_flags", &clear) >= 0;
   const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get());
   if (f < 0)
-    throw std::invalid_argument("cannot continue '" + path + "': cannot open it for writing (HDF5)" +
-                                (can_clear ? std::string()
-                                           : "; if the run that wrote it was killed, `h5clear -s " + path +
-                                                 "` (Debian's hdf5-tools) clears the mark it left"));
+    throw std::invalid_argument(
+        "cannot continue '" + path + "': cannot open it for writing (HDF5)" +
+        (held_by_a_reader(path) ? std::string("; another program has it open (h5py, HDFView, ...: HDF5 locks a file "
+                                              "it reads): close it there and resume again")
+         : can_clear ? std::string()
+                     : "; if the run that wrote it was killed, `h5clear -s " + path +
+                           "` (Debian's hdf5-tools) clears the mark it left"));
   impl_->file = Handle(f, H5Fclose);
   // The summary of the run that wrote the checkpoint's end, if it finished: finish() writes anew.
   if (H5Lexists(f, "summary", H5P_DEFAULT) > 0) check(H5Ldelete(f, "summary", H5P_DEFAULT), path, "remove /summary");
