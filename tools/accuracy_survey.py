@@ -9,6 +9,12 @@ Each case gets a verdict: ok-right, SILENT-WRONG, caught, false-alarm or failed.
 
     /usr/bin/python3 tools/accuracy_survey.py --jobs 2
     /usr/bin/python3 tools/accuracy_survey.py --seeds 1 --count 3 --extra "--accuracy 0.05" --json out.json
+    /usr/bin/python3 tools/accuracy_survey.py --companion 2    # also a companion design's verdicts
+
+--companion K measures a candidate check that is not built in: a second run of the case at K dt
+(--accuracy 0) to the same output times, its estimate of our error Richardson's, max |q_dt -
+q_Kdt| / (K^2 - 1) (the runs are of order 2), judged against THRESHOLD x extent as the built-in
+check is; its verdicts are counted beside the built-in check's.
 """
 import argparse
 import concurrent.futures
@@ -109,6 +115,22 @@ def true_error(ours, ref):
     return float(diff.max()), len(rows)
 
 
+def companion_estimate(case, opts, every, hitch, tmp):
+    """Richardson's estimate of our run's error from a companion at K dt (both --accuracy 0): NaN
+    when the companion fails or no output times are common."""
+    k = opts.companion
+    ours, comp = os.path.join(tmp, "plain.csv"), os.path.join(tmp, "companion.csv")
+    rc1, _, _ = run(opts.cli, case_args(case, case["dt"]) + hitch + ["--accuracy", "0", "--out", ours,
+                                                                    "--every", str(every)], opts.timeout)
+    rc2, _, _ = run(opts.cli, case_args(case, k * case["dt"]) + hitch + ["--accuracy", "0", "--out", comp,
+                                                                        "--every", str(max(1, every // k))],
+                    opts.timeout)
+    if rc1 != 0 or rc2 != 0 or not os.path.exists(comp):
+        return float("nan")
+    difference, rows = true_error(read_q(ours), read_q(comp))
+    return difference / (k * k - 1) if rows else float("nan")
+
+
 def survey(case, opts):
     every = max(1, round(OUTPUT_INTERVAL / case["dt"]))
     hitch = ["--hitch", case["hitch"]] if case["hitch"] else []
@@ -136,6 +158,8 @@ def survey(case, opts):
         res["true_error"], res["rows"] = float("nan"), 0
         if ref_ok and os.path.exists(ours_csv):
             res["true_error"], res["rows"] = true_error(read_q(ours_csv), read_q(ref_csv))
+        if opts.companion and rc in (0, 3):
+            res["companion"] = companion_estimate(case, opts, every, hitch, tmp)
     rel = res["true_error"] / res["extent"] if res["extent"] > 0 else float("nan")
     res["rel"] = rel
     if rc not in (0, 3):
@@ -163,6 +187,8 @@ def main():
     ap.add_argument("--timeout", type=float, default=300, help="seconds per command")
     ap.add_argument("--json", help="write the raw results to this file")
     ap.add_argument("--no-arkode", action="store_true", help="always use the order-6 reference (tests the fallback)")
+    ap.add_argument("--companion", type=int, default=0, metavar="K",
+                    help="also judge each case by a companion run at K dt (Richardson; see above)")
     opts = ap.parse_args()
     opts.cli = os.path.abspath(opts.cli)
     cases = [c for seed in opts.seeds for c in make_cases(seed, opts.count)]
@@ -184,6 +210,20 @@ def main():
     refs = {}
     for r in results:
         refs[r["reference"]] = refs.get(r["reference"], 0) + 1
+    if opts.companion:
+        would = {}
+        for r in results:
+            if not r["verdict"].startswith(("ok", "SILENT", "caught", "false")):
+                continue
+            est = r.get("companion", float("nan")) / r["extent"] if r["extent"] > 0 else float("nan")
+            flagged = not (est <= THRESHOLD)  # NaN: the companion failed, which a check would report
+            wrong = r["rel"] > THRESHOLD
+            v = "caught" if flagged and wrong else "false-alarm" if flagged else "SILENT-WRONG" if wrong else "ok-right"
+            would[v] = would.get(v, 0) + 1
+            print(f"  companion at {opts.companion} dt: {r['label']}: estimate/extent {est:.3g}, true/extent "
+                  f"{r['rel']:.3g}: {v}")
+        print(f"a companion at {opts.companion} dt would give: " +
+              ", ".join(f"{v}: {n}" for v, n in sorted(would.items())))
     print("references: " + ", ".join(f"{k}: {n}" for k, n in sorted(refs.items()))
           + "  (arkode = arkode-verner tol 1e-12 --project; order6 = ours, --order 6, dt/8, --accuracy 0)")
     if opts.json:
