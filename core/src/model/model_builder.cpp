@@ -796,7 +796,6 @@ bool chain_in_some_order(const detail::ElementSet& set, int bodies) {
     }
     return b;
   };
-  std::set<std::pair<int, int>> hitched;
   for (const Hitch& h : set.hitches) {
     if (h.rear == h.front || ++degree[static_cast<std::size_t>(h.rear)] > 2 ||
         ++degree[static_cast<std::size_t>(h.front)] > 2)
@@ -804,12 +803,15 @@ bool chain_in_some_order(const detail::ElementSet& set, int bodies) {
     const int a = root(h.rear), b = root(h.front);
     if (a == b) return false;  // a loop
     parent[static_cast<std::size_t>(a)] = b;
-    hitched.insert(std::minmax(h.rear, h.front));
   }
   for (const KnifeEdge& e : set.knife_edges)
     if (++knives[static_cast<std::size_t>(e.body)] > 1) return false;
-  for (const TorsionalSpring& s : set.springs)
-    if (!hitched.count(std::minmax(s.first, s.second))) return false;
+  if (!set.springs.empty()) {  // the hitched pairs, only then (a million-body chain's set-up)
+    std::set<std::pair<int, int>> hitched;
+    for (const Hitch& h : set.hitches) hitched.insert(std::minmax(h.rear, h.front));
+    for (const TorsionalSpring& s : set.springs)
+      if (!hitched.count(std::minmax(s.first, s.second))) return false;
+  }
   return true;  // n - 1 hitches without a loop: a spanning tree, of degree at most 2: a path
 }
 

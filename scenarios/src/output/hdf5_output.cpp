@@ -232,17 +232,10 @@ bool held_by_a_reader(const std::string& path) {
 
 // The run id a run's file carries ("" when none), read without writing: the file may be another's.
 std::string run_id_of(const std::string& path) {
-  hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) f = H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, H5P_DEFAULT);  // killed while writing
-  if (f < 0) throw std::invalid_argument("cannot continue '" + path + "': not an HDF5 file, or a damaged one");
-  Handle file(f, H5Fclose);
-  if (H5Aexists(f, "run_id") <= 0) return "";
-  Handle a = check(H5Aopen(f, "run_id", H5P_DEFAULT), H5Aclose, path, "open attribute run_id");
-  Handle type = string_type(path);
-  char* text = nullptr;
-  check(H5Aread(a.get(), type.get(), &text), path, "read attribute run_id");
-  std::string id = text ? text : "";
-  H5free_memory(text);
+  Handle file = open_for_reading(path);
+  if (!file) throw std::invalid_argument("cannot continue '" + path + "': not an HDF5 file, or a damaged one");
+  std::string id;
+  read_text_attribute(file.get(), path, "run_id", id);
   return id;
 }
 }  // namespace

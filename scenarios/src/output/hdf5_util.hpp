@@ -104,6 +104,26 @@ inline void attribute(hid_t on, const std::string& path, const std::string& name
   check(H5Awrite(a.get(), type.get(), &text), path, "write attribute " + name);
 }
 
+// A string attribute into `out`; false (out untouched) when `on` has none of that name.
+inline bool read_text_attribute(hid_t on, const std::string& path, const char* name, std::string& out) {
+  if (H5Aexists(on, name) <= 0) return false;
+  Handle a = check(H5Aopen(on, name, H5P_DEFAULT), H5Aclose, path, std::string("open attribute ") + name);
+  Handle type = string_type(path);
+  char* text = nullptr;
+  check(H5Aread(a.get(), type.get(), &text), path, std::string("read attribute ") + name);
+  out = text ? text : "";
+  H5free_memory(text);
+  return true;
+}
+
+// A file opened for reading, also one whose writer was killed while writing it single-writer/
+// multiple-reader (the mark it left refuses a plain open); an empty Handle when neither works.
+inline Handle open_for_reading(const std::string& path) {
+  hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (id < 0) id = H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, H5P_DEFAULT);
+  return id < 0 ? Handle() : Handle(id, H5Fclose);
+}
+
 inline Handle group(hid_t file, const std::string& path, const char* name) {
   return check(H5Gcreate2(file, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, path,
                std::string("create group ") + name);

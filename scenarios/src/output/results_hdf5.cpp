@@ -58,20 +58,11 @@ herr_t read_attribute(hid_t on, const char* name, const H5A_info_t*, void* data)
 
 RunData load_run_hdf5(const std::string& path) {
   const Quiet quiet;
-  hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (id < 0) id = H5Fopen(path.c_str(), H5F_ACC_RDONLY | H5F_ACC_SWMR_READ, H5P_DEFAULT);  // killed while writing
-  if (id < 0) throw std::invalid_argument("cannot read '" + path + "' (not an HDF5 file, or a damaged one)");
-  Handle file(id, H5Fclose);
+  Handle file = open_for_reading(path);  // (a run killed while writing too)
+  if (!file) throw std::invalid_argument("cannot read '" + path + "' (not an HDF5 file, or a damaged one)");
   const hid_t f = file.get();
   std::string format;
-  if (H5Aexists(f, "format") > 0) {
-    Handle a = check(H5Aopen(f, "format", H5P_DEFAULT), H5Aclose, path, "open attribute format");
-    Handle type = string_type(path);
-    char* text = nullptr;
-    check(H5Aread(a.get(), type.get(), &text), path, "read attribute format");
-    format = text ? text : "";
-    H5free_memory(text);
-  }
+  read_text_attribute(f, path, "format", format);
   if (format != "nonholo run")
     throw std::invalid_argument("'" + path + "' is a '" + format + "' file, not a run's output");
   RunData d;

@@ -212,7 +212,8 @@ void RunLoop::open_outputs() {
   const std::string& out = config_.csv_path;
   if (!out.empty() && out != "-") output_lock_ = FileLock::take(out, "output");
   if (!config_.checkpoint_path.empty()) checkpoint_lock_ = FileLock::take(config_.checkpoint_path, "checkpoint");
-  if (!resuming && (!out.empty() || !config_.checkpoint_path.empty())) loop_.run_id = new_run_id();  // (not per row of a batch)
+  // (Not for a batch's rows: they have neither.)
+  if (!resuming && (!out.empty() || !config_.checkpoint_path.empty())) loop_.run_id = new_run_id();
   if (is_hdf5_path(out))
     h5_ = resuming ? std::make_unique<Hdf5RunWriter>(out, loop_.output_position, loop_.run_id)
                    : std::make_unique<Hdf5RunWriter>(out, resolved(config_, run_), run_.info.name, params_,
@@ -364,12 +365,16 @@ bool RunLoop::stop_requested(long k) {
   return true;
 }
 
+// Who asked to stop: "interrupted (SIGINT)", or the caller (its sink or flag).
+std::string RunLoop::stop_cause() const {
+  return interrupt_requested() ? std::string("interrupted (") + interrupt_name() + ")" : "interrupted by the caller";
+}
+
 // Status::Interrupted and its message: after step k - 1, or during step k (an adaptive output
 // interval stopped between its pairs: the state is at the last finished pair).
 void RunLoop::interrupted(long k, bool during) {
   summary_.status = Status::Interrupted;
-  summary_.message = (interrupt_requested() ? std::string("interrupted (") + interrupt_name() + ")"
-                                            : std::string("interrupted by the caller")) +
+  summary_.message = stop_cause() +
                      (during ? " during step " + std::to_string(k) : " after step " + std::to_string(k - 1)) +
                      " at t = " + std::to_string(runner_->t()) + "; the output holds every row up to step " +
                      std::to_string(k - 1);
@@ -633,9 +638,8 @@ TrajectoryResult RunLoop::interrupted_in_set_up() {
   summary.method = config_.method;
   summary.dt = run_.dt;
   summary.status = Status::Interrupted;
-  summary.message = (interrupt_requested() ? std::string("interrupted (") + interrupt_name() + ")"
-                                           : std::string("interrupted by the caller")) +
-                    " during the set-up (" + (runner_ ? "after the method's start" : "after building the model") +
+  summary.message = stop_cause() + " during the set-up (" +
+                    (runner_ ? "after the method's start" : "after building the model") +
                     "): no step was taken and no output written";
   summary.error_estimate = std::numeric_limits<double>::quiet_NaN();  // nothing compared
   summary.setup_s = std::chrono::duration<double>(Clock::now() - run_start_).count();

@@ -82,6 +82,7 @@ class RunLoop {
   // --- one step of the loop ---
   bool stop_requested(long k);       // Ctrl-C, the sink or the caller: status=interrupted
   bool stop_signalled() const;      // whether one of them asks to stop (the runners ask it too)
+  std::string stop_cause() const;    // "interrupted (SIGINT)" or "interrupted by the caller"
   void interrupted(long k, bool during);  // status=interrupted, after step k - 1 or during step k
   bool watches_fail(long k);         // the stability and precision watches before step k
   bool advance(long k);              // the method's step; false (status set) when it failed

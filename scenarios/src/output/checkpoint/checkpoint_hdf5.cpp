@@ -32,13 +32,9 @@ void dataset(hid_t file, const std::string& path, const char* name, hid_t file_t
 }
 
 std::string read_text(hid_t on, const std::string& path, const char* name) {
-  if (H5Aexists(on, name) <= 0) not_a_checkpoint(path, std::string("no attribute '") + name + "': not a nonholo checkpoint");
-  Handle a = check(H5Aopen(on, name, H5P_DEFAULT), H5Aclose, path, std::string("open attribute ") + name);
-  Handle type = string_type(path);
-  char* text = nullptr;
-  check(H5Aread(a.get(), type.get(), &text), path, std::string("read attribute ") + name);
-  std::string out = text ? text : "";
-  H5free_memory(text);
+  std::string out;
+  if (!read_text_attribute(on, path, name, out))
+    not_a_checkpoint(path, std::string("no attribute '") + name + "': not a nonholo checkpoint");
   return out;
 }
 
