@@ -389,7 +389,8 @@ TEST(Accuracy, ACheckThatTookNoSampleIsNotOk) {
   summary.error_estimate = 0.0;
   scenarios::RunConfig config;
   config.accuracy = 0.1;
-  scenarios::judge_accuracy(summary, config, 2, e, true);
+  summary.accuracy_check = "sampled";
+  scenarios::judge_accuracy(summary, config, 2, &e, 0.0, true);
   EXPECT_EQ(summary.status, Status::Inaccurate);
   EXPECT_TRUE(std::isnan(summary.error_estimate));
   EXPECT_THAT(summary.message, HasSubstr("the accuracy check took no sample: its step of 2 dt failed once"));
@@ -456,6 +457,112 @@ TEST(Accuracy, Rk4IsCheckedWithoutChangingItsRun) {
   EXPECT_LT(std::stod(ka.at("error_estimate")), 1e-9);
   std::remove(with.c_str());
   std::remove(without.c_str());
+}
+
+// The companion's estimate (accuracy.hpp companion_estimate): Richardson while the companion's own
+// error is within the tolerance, three times it beyond.
+TEST(Accuracy, TheCompanionEstimateIsRichardsonInsideItsRegime) {
+  EXPECT_DOUBLE_EQ(companion_estimate(3e-3, 4.0, 1.0), 1e-3);      // order 2 at 2 dt: D / 3
+  EXPECT_DOUBLE_EQ(companion_estimate(15e-3, 16.0, 1.0), 1e-3);    // order 4
+  EXPECT_DOUBLE_EQ(companion_estimate(0.3, 4.0, 0.39), 0.3);       // its own error 0.4 > 0.39: 3 D / 3
+  EXPECT_DOUBLE_EQ(companion_estimate(0.3, 4.0, 0.41), 0.1);
+  EXPECT_DOUBLE_EQ(companion_estimate(0.9e-3, 0.1, 1.0), 1e-3);    // a companion at tol / 10: D / 0.9
+  EXPECT_TRUE(std::isnan(companion_estimate(std::numeric_limits<double>::quiet_NaN(), 4.0, 1.0)));
+}
+
+// Fast chaotic chains, whose error grows exponentially from t of a few: the sampled check's sum of
+// local errors cannot see it (each ended ok, 24-93 % of its extent off against ARKODE at 1e-12:
+// the reproducer and the survey's three silent wrong runs); the companion at 2 dt, which
+// grows apart from the run as the error does, judges them inaccurate.
+TEST(Accuracy, TheCompanionSeesErrorsThatGrow) {
+  for (const auto& args : std::vector<std::vector<std::string>>{
+           {"run", "sleigh_chain", "--set", "bodies=20", "--set", "omega0=50", "--set", "v0=10", "--dt", "0.001"},
+           {"run", "sleigh_chain", "--set", "bodies=30", "--set", "omega0=39.45", "--set", "v0=1.311", "--dt", "0.0005",
+            "--hitch", "oneform"},
+           {"run", "sleigh_chain", "--set", "bodies=20", "--set", "omega0=49.49", "--set", "v0=4.184", "--dt", "0.001"},
+           {"run", "sleigh_chain", "--set", "bodies=20", "--set", "omega0=38.39", "--set", "v0=9.283", "--dt", "0.001"}}) {
+    const auto r = run_cli(args);
+    EXPECT_EQ(r.code, 3) << r.out << r.err;
+    const auto kv = summary_of(r.out);
+    EXPECT_EQ(kv.at("accuracy_check"), "companion") << r.out;
+    EXPECT_GT(std::stod(kv.at("error_estimate")), 0.1 * std::stod(kv.at("extent"))) << r.out;
+    auto sampled = args;
+    sampled.insert(sampled.end(), {"--accuracy-check", "sampled"});
+    const auto s = run_cli(sampled);
+    EXPECT_EQ(s.code, 0) << "the sampled check was blind to this one: " << s.out;
+    EXPECT_EQ(summary_of(s.out).at("accuracy_check"), "sampled");
+  }
+}
+
+// Where the error does not grow, the companion's estimate is the error: against ARKODE at 1e-14
+// at t = 10, where the error of these runs is largest (measured ratios 0.99-1.00).
+TEST(Accuracy, TheCompanionEstimateFollowsTheTrueError) {
+  struct Case {
+    const char* scene;
+    const char* dt;
+  };
+  for (const Case& c : {Case{"sleigh", "0.01"}, Case{"sleigh", "0.05"}, Case{"sleigh_chain", "0.01"},
+                        Case{"sleigh_chain", "0.05"}, Case{"particle", "0.01"}}) {
+    const auto r = run_cli({"run", c.scene, "--dt", c.dt, "--out", ::testing::TempDir() + "companion_truth.csv"});
+    ASSERT_EQ(r.code, 0) << r.out << r.err;
+    const auto kv = summary_of(r.out);
+    ASSERT_EQ(kv.at("accuracy_check"), "companion");
+    const auto setup = testing::scene(c.scene, {});
+    RattleOptions o;
+    o.h = std::stod(c.dt);
+    const Watched w = integrate(setup, o, 10.0, Watch::None);
+    const double truth = (w.state.q - testing::reference_at(setup, 10.0)).lpNorm<Eigen::Infinity>();
+    const double estimate = std::stod(kv.at("error_estimate"));
+    std::printf("%-13s dt %s: companion %.4g, error %.4g, ratio %.3f\n", c.scene, c.dt, estimate, truth,
+                estimate / truth);
+    EXPECT_GT(estimate, 0.9 * truth) << c.scene << " dt " << c.dt;
+    EXPECT_LT(estimate, 1.1 * truth) << c.scene << " dt " << c.dt;
+  }
+  std::remove((::testing::TempDir() + "companion_truth.csv").c_str());
+}
+
+// Adaptive steps (--tol) are judged too: error_estimate and extent from the companion at 10 tol,
+// status=inaccurate beyond 10 tol (or the extent's bound). Measured against ARKODE at 1e-12: the
+// sleigh at tol 1e-6 4.4e-6 (ok); the fast chain at omega0 = 20, order 4, tol 1e-4, 2.0e-3, 20
+// times its tol; the chain at omega0 = 50, tol 1e-2, 5.5 (both ended ok, unjudged).
+TEST(Accuracy, AdaptiveRunsAreJudged) {
+  auto r = run_cli({"run", "sleigh", "--tol", "1e-6", "--dt", "1"});
+  EXPECT_EQ(r.code, 0) << r.out << r.err;
+  auto kv = summary_of(r.out);
+  EXPECT_EQ(kv.at("accuracy_check"), "companion");
+  EXPECT_GT(std::stod(kv.at("error_estimate")), 0.5 * 4.4e-6) << r.out;
+  EXPECT_LT(std::stod(kv.at("error_estimate")), 2.0 * 4.4e-6) << r.out;
+  EXPECT_GT(std::stod(kv.at("extent")), 9.0);
+  for (const auto& args : std::vector<std::vector<std::string>>{
+           {"run", "sleigh_chain", "--set", "omega0=20", "--tol", "1e-4", "--order", "4", "--dt", "1"},
+           {"run", "sleigh_chain", "--set", "omega0=50", "--set", "v0=10", "--tol", "1e-2", "--dt", "0.1"}}) {
+    r = run_cli(args);
+    EXPECT_EQ(r.code, 3) << r.out << r.err;
+    kv = summary_of(r.out);
+    EXPECT_EQ(kv.at("status"), "inaccurate");
+    EXPECT_GT(std::stod(kv.at("error_estimate")), 10 * std::stod(kv.at("tol"))) << r.out;
+    EXPECT_THAT(r.err, HasSubstr("more than 10 times --tol"));
+    EXPECT_THAT(r.err, HasSubstr("times their --tol"));
+    auto off = args;
+    off.insert(off.end(), {"--accuracy", "0"});
+    EXPECT_EQ(run_cli(off).code, 0) << args[1];
+  }
+  // Output intervals that cap the steps: the companion's are twice as long (not 10 tol's).
+  r = run_cli({"run", "sleigh_chain", "--tol", "1e-6", "--order", "4", "--dt", "0.01", "--t-end", "2"});
+  EXPECT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_GT(std::stod(summary_of(r.out).at("error_estimate")), 0.0) << r.out;
+  r = run_cli({"run", "sleigh", "--tol", "1e-6", "--accuracy-check", "sampled"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.err, HasSubstr("adaptive steps (--tol) have no sampled check"));
+}
+
+TEST(Accuracy, RefusesABadCheck) {
+  auto r = run_cli({"run", "sleigh", "--accuracy-check", "both"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.err, HasSubstr("--accuracy-check both: auto, companion or sampled"));
+  r = run_cli({"run", "sleigh", "--method", "arkode-verner", "--accuracy-check", "companion"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.err, HasSubstr("the accuracy check is the reflection method's and rk4's"));
 }
 
 TEST(Accuracy, RefusesABadTolerance) {

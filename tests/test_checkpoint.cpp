@@ -157,6 +157,12 @@ TEST(Checkpoint, AResumedRunIsTheUninterruptedOneBitForBit) {
       {"adaptive order 2", {"sleigh", "--tol", "1e-6", "--dt", "0.5", "--t-end", "10"}, "csv", 7},
       {"adaptive order 6", {"sleigh_chain", "--set", "bodies=10", "--order", "6", "--tol", "1e-8", "--dt", "0.5", "--t-end", "20"}, "csv", 13},
       {"HDF5 output", {"sleigh_chain", "--set", "bodies=10", "--t-end", "3"}, "h5", 101},
+      // The accuracy check's companion (a step of 2 dt every two steps) stopped between its steps
+      // and right after one; and after it started again from the run's state (the 200-body train's
+      // companion fails at t = 86.74 on its own period-2 mode).
+      {"companion between its steps", {"sleigh_chain", "--set", "bodies=10", "--t-end", "3"}, "csv", 6},
+      {"companion after its step", {"sleigh_chain", "--set", "bodies=10", "--t-end", "3"}, "csv", 7},
+      {"companion started again", {"wheeled_train", "--set", "bodies=200", "--every", "100", "--t-end", "90"}, "csv", 88},
   };
   for (const Case& c : cases) expect_resume_is_the_run(c);
 }

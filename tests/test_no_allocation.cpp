@@ -6,6 +6,7 @@
 #include <nonholo/dla.hpp>
 #include <nonholo/implicit.hpp>
 #include <nonholo/rattle.hpp>
+#include <nonholo/scenarios/run.hpp>
 #include <nonholo/scenarios/scene.hpp>
 #include <nonholo/start.hpp>
 
@@ -73,6 +74,33 @@ TEST(NoAllocation, AccuracyWatch) {
 
 // Adaptive composed steps: the pair, its shadow step, the rejections (the state restored by copy) and the
 // retries allocate nothing (order 6, a chain in both hitch modes, a tolerance that rejects).
+// A whole run of `nonholo run` with the accuracy check's companion (its steps, the comparison
+// every two steps, the sampled check beside it) allocates the same for 200 steps as for 100:
+// nothing per step (set-up, the summary and its messages allocate once).
+TEST(NoAllocation, TheRunWithItsCompanion) {
+  for (const char* tol : {"", "1e-6"}) {
+    auto count = [tol](double t_end) {
+      scenarios::RunConfig c;
+      c.scene = "sleigh_chain";
+      c.t_end = t_end;
+      c.accuracy_check = "companion";
+      if (*tol) {
+        c.adaptive = true;
+        c.tol = std::stod(tol);
+        c.order = 4;
+      }
+      testing::start_counting_allocations();
+      const scenarios::RunSummary r = scenarios::run_scene(c);
+      const long n = testing::stop_counting_allocations();
+      EXPECT_EQ(r.status, Status::Ok) << r.message;
+      EXPECT_EQ(r.accuracy_check, "companion");
+      return n;
+    };
+    count(0.5);  // what is made once per process
+    EXPECT_EQ(count(2.0), count(1.0)) << (*tol ? "adaptive" : "fixed steps");
+  }
+}
+
 TEST(NoAllocation, AdaptiveStepper) {
   const auto& info = scenarios::find_scene("sleigh_chain");
   const auto setup = info.build(info.defaults());

@@ -9,12 +9,17 @@ Each case gets a verdict: ok-right, SILENT-WRONG, caught, false-alarm or failed.
 
     /usr/bin/python3 tools/accuracy_survey.py --jobs 2
     /usr/bin/python3 tools/accuracy_survey.py --seeds 1 --count 3 --extra "--accuracy 0.05" --json out.json
-    /usr/bin/python3 tools/accuracy_survey.py --companion 2    # also a companion design's verdicts
+    /usr/bin/python3 tools/accuracy_survey.py --companion 2 4 --json raw.json   # designs beside the tool's
+    /usr/bin/python3 tools/accuracy_survey.py --reuse raw.json --verbose        # judged again, no runs
 
---companion K measures a candidate check that is not built in: a second run of the case at K dt
-(--accuracy 0) to the same output times, its estimate of our error Richardson's, max |q_dt -
-q_Kdt| / (K^2 - 1) (the runs are of order 2), judged against THRESHOLD x extent as the built-in
-check is; its verdicts are counted beside the built-in check's.
+The tool's own check is what the runs report (status, error_estimate; --extra "--accuracy-check
+sampled" surveys the sampled check). --companion K [K ...] measures designs that are not built in,
+each from a companion run of the case at K dt (--accuracy 0) to the same output times and its
+largest difference D from our run (the runs are of order 2): Richardson's D / (K^2 - 1); GCI's
+3 D / (K^2 - 1) (Roache's factor of safety for two levels); "switch", Richardson while the
+companion's own error is within THRESHOLD x extent and GCI's beyond (the tool's companion rule);
+and with K = 2 and 4 together the observed-order estimate of three levels. Each is judged
+against THRESHOLD x extent as the tool's check is, alone and together with the tool's check.
 """
 import argparse
 import concurrent.futures
@@ -115,20 +120,50 @@ def true_error(ours, ref):
     return float(diff.max()), len(rows)
 
 
-def companion_estimate(case, opts, every, hitch, tmp):
-    """Richardson's estimate of our run's error from a companion at K dt (both --accuracy 0): NaN
-    when the companion fails or no output times are common."""
-    k = opts.companion
-    ours, comp = os.path.join(tmp, "plain.csv"), os.path.join(tmp, "companion.csv")
-    rc1, _, _ = run(opts.cli, case_args(case, case["dt"]) + hitch + ["--accuracy", "0", "--out", ours,
-                                                                    "--every", str(every)], opts.timeout)
-    rc2, _, _ = run(opts.cli, case_args(case, k * case["dt"]) + hitch + ["--accuracy", "0", "--out", comp,
-                                                                        "--every", str(max(1, every // k))],
-                    opts.timeout)
-    if rc1 != 0 or rc2 != 0 or not os.path.exists(comp):
-        return float("nan")
-    difference, rows = true_error(read_q(ours), read_q(comp))
-    return difference / (k * k - 1) if rows else float("nan")
+def companion_differences(case, opts, every, hitch, tmp):
+    """Our run again (--accuracy 0) and a companion at each K dt of --companion: {K: max over the
+    output times of |q_dt - q_Kdt|}, and "2-4": that between the companions at 2 and 4 dt where
+    both ran (the third level of an observed-order check); NaN where a run fails or no output
+    times are common."""
+    ours = os.path.join(tmp, "plain.csv")
+    rc, _, _ = run(opts.cli, case_args(case, case["dt"]) + hitch + ["--accuracy", "0", "--out", ours,
+                                                                   "--every", str(every)], opts.timeout)
+    out, q = {}, {}
+    for k in opts.companion:
+        comp = os.path.join(tmp, f"companion{k}.csv")
+        rck, _, _ = run(opts.cli, case_args(case, k * case["dt"]) + hitch + ["--accuracy", "0", "--out", comp,
+                                                                            "--every", str(max(1, every // k))],
+                        opts.timeout)
+        out[k] = float("nan")
+        if rc == 0 and rck == 0 and os.path.exists(comp):
+            q[k] = read_q(comp)
+            difference, rows = true_error(read_q(ours), q[k])
+            out[k] = difference if rows else float("nan")
+    if 2 in q and 4 in q:
+        difference, rows = true_error(q[2], q[4])
+        out["2-4"] = difference if rows else float("nan")
+    return out
+
+
+COMPANION_RULES = {  # a companion's difference D (our run against K dt; order p = 2) to an error estimate
+    "richardson": lambda d, k, d24, ext: d / (k * k - 1),
+    "gci3": lambda d, k, d24, ext: 3 * d / (k * k - 1),  # Roache's two-level factor of safety 3
+    # Richardson while the companion's own error (K^p D / (K^p - 1)) is within the threshold, else GCI's 3
+    "switch": lambda d, k, d24, ext: d / (k * k - 1) * (1 if k * k * d / (k * k - 1) <= THRESHOLD * ext else 3),
+}
+
+
+def observed_order_estimate(d12, d24):
+    """Three levels (dt, 2 dt, 4 dt), Roache's GCI: the observed order from D(2,4) / D(1,2); within 0.5
+    of the formal order 2, 1.25 D / (2^2 - 1); otherwise 3 D / (2^p' - 1) with p' the observed order
+    capped at 2 (and at least 0.1: no convergence seen)."""
+    if not (d12 > 0 and d24 > 0):
+        return d12 / 3
+    p_obs = math.log2(d24 / d12)
+    if abs(p_obs - 2) <= 0.5:
+        return 1.25 * d12 / 3
+    p_use = min(2.0, max(0.1, p_obs))
+    return 3 * d12 / (2 ** p_use - 1)
 
 
 def survey(case, opts):
@@ -158,8 +193,8 @@ def survey(case, opts):
         res["true_error"], res["rows"] = float("nan"), 0
         if ref_ok and os.path.exists(ours_csv):
             res["true_error"], res["rows"] = true_error(read_q(ours_csv), read_q(ref_csv))
-        if opts.companion and rc in (0, 3):
-            res["companion"] = companion_estimate(case, opts, every, hitch, tmp)
+        if rc in (0, 3):
+            res["companion"] = companion_differences(case, opts, every, hitch, tmp)
     rel = res["true_error"] / res["extent"] if res["extent"] > 0 else float("nan")
     res["rel"] = rel
     if rc not in (0, 3):
@@ -187,13 +222,22 @@ def main():
     ap.add_argument("--timeout", type=float, default=300, help="seconds per command")
     ap.add_argument("--json", help="write the raw results to this file")
     ap.add_argument("--no-arkode", action="store_true", help="always use the order-6 reference (tests the fallback)")
-    ap.add_argument("--companion", type=int, default=0, metavar="K",
+    ap.add_argument("--companion", type=int, nargs="+", default=[], metavar="K",
                     help="also judge each case by a companion run at K dt (Richardson; see above)")
+    ap.add_argument("--reuse", metavar="JSON", help="judge the raw results of an earlier --json again, running nothing")
+    ap.add_argument("--verbose", action="store_true", help="each case's verdict by each companion design")
     opts = ap.parse_args()
     opts.cli = os.path.abspath(opts.cli)
     cases = [c for seed in opts.seeds for c in make_cases(seed, opts.count)]
-    with concurrent.futures.ThreadPoolExecutor(max_workers=opts.jobs) as pool:
-        results = list(pool.map(lambda c: survey(c, opts), cases))
+    if opts.reuse:  # the raw results of an earlier survey, judged again (no runs)
+        with open(opts.reuse) as f:
+            results = json.load(f)
+        for r in results:
+            r["companion"] = {(int(k) if k.isdigit() else k): v for k, v in r.get("companion", {}).items()}
+        opts.companion = sorted({k for r in results for k in r["companion"] if isinstance(k, int)})
+    else:
+        with concurrent.futures.ThreadPoolExecutor(max_workers=opts.jobs) as pool:
+            results = list(pool.map(lambda c: survey(c, opts), cases))
 
     width = max(len(r["label"]) for r in results)
     head = f"{'label':<{width}} | {'status':<10} | {'estimate':>9} | {'true err':>9} | {'extent':>9} | " \
@@ -211,19 +255,35 @@ def main():
     for r in results:
         refs[r["reference"]] = refs.get(r["reference"], 0) + 1
     if opts.companion:
-        would = {}
-        for r in results:
-            if not r["verdict"].startswith(("ok", "SILENT", "caught", "false")):
-                continue
-            est = r.get("companion", float("nan")) / r["extent"] if r["extent"] > 0 else float("nan")
-            flagged = not (est <= THRESHOLD)  # NaN: the companion failed, which a check would report
+        judged = [r for r in results if r["verdict"].startswith(("ok", "SILENT", "caught", "false"))]
+
+        def verdict(est, r):
+            flagged = not (est <= THRESHOLD * r["extent"])  # NaN: the companion failed, which a check would report
             wrong = r["rel"] > THRESHOLD
-            v = "caught" if flagged and wrong else "false-alarm" if flagged else "SILENT-WRONG" if wrong else "ok-right"
-            would[v] = would.get(v, 0) + 1
-            print(f"  companion at {opts.companion} dt: {r['label']}: estimate/extent {est:.3g}, true/extent "
-                  f"{r['rel']:.3g}: {v}")
-        print(f"a companion at {opts.companion} dt would give: " +
-              ", ".join(f"{v}: {n}" for v, n in sorted(would.items())))
+            return "caught" if flagged and wrong else "false-alarm" if flagged else "SILENT-WRONG" if wrong else "ok-right"
+
+        designs = {}
+        for k in opts.companion:
+            for name, rule in COMPANION_RULES.items():
+                designs[f"{name} at {k} dt"] = lambda r, k=k, rule=rule: rule(
+                    r["companion"][k], k, r["companion"].get("2-4", float("nan")), r["extent"])
+        if 2 in opts.companion and 4 in opts.companion:
+            designs["observed order (dt, 2 dt, 4 dt)"] = lambda r: observed_order_estimate(
+                r["companion"][2], r["companion"]["2-4"])
+        for name, estimate in designs.items():
+            for either in (False, True):
+                would = {}
+                for r in judged:
+                    est = estimate(r)
+                    v = verdict(est, r)
+                    if either and r["verdict"] in ("caught", "false-alarm"):  # the built-in check flagged it too
+                        v = "caught" if r["rel"] > THRESHOLD else "false-alarm"
+                    would[v] = would.get(v, 0) + 1
+                    if opts.verbose and not either:
+                        print(f"  {name}: {r['label']}: estimate/extent {est / r['extent']:.3g}, true/extent "
+                              f"{r['rel']:.3g}: {v}")
+                print(f"{name}{' or the built-in check' if either else ''}: " +
+                      ", ".join(f"{v}: {n}" for v, n in sorted(would.items())))
     print("references: " + ", ".join(f"{k}: {n}" for k, n in sorted(refs.items()))
           + "  (arkode = arkode-verner tol 1e-12 --project; order6 = ours, --order 6, dt/8, --accuracy 0)")
     if opts.json:

@@ -242,7 +242,8 @@ def _option(args, keyword, flag, value, form):
 
 
 def _run_arguments(what, scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                   monitor_every, composition, error_estimate, project, tol, rotation=None, accuracy=None):
+                   monitor_every, composition, error_estimate, project, tol, rotation=None, accuracy=None,
+                   accuracy_check=None):
     args = [_scene(scene, what)]
     for keyword, value, form in (
             ("dt", dt, _number), ("t_end", t_end, _number), ("method", method, _text), ("order", order, _integer),
@@ -250,7 +251,7 @@ def _run_arguments(what, scene, dt, t_end, set, method, order, hitch, backend, r
             ("restart", restart, lambda k, v: _text(k, v) if isinstance(v, str) else _integer(k, v)),
             ("restart_tol", restart_tol, _number), ("monitor_every", monitor_every, _integer),
             ("composition", composition, _text), ("rotation", rotation, _text), ("tol", tol, _number),
-            ("accuracy", accuracy, _number)):
+            ("accuracy", accuracy, _number), ("accuracy_check", accuracy_check, _text)):
         _option(args, keyword, "--" + keyword.replace("_", "-"), value, form)
     if error_estimate:
         args.append("--error-estimate")
@@ -314,7 +315,8 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
         restart: Union[str, _Integer, None] = None, restart_tol: Optional[_Real] = None,
         monitor_every: Optional[_Integer] = None, composition: Optional[str] = None, error_estimate: bool = False,
         project: bool = False, tol: Optional[_Real] = None, rotation: Optional[str] = None,
-        accuracy: Optional[_Real] = None, out: Optional[_Path] = None, check: bool = False,
+        accuracy: Optional[_Real] = None, accuracy_check: Optional[str] = None, out: Optional[_Path] = None,
+        check: bool = False,
         checkpoint: Optional[_Path] = None, checkpoint_every: Union[str, _Integer, None] = None,
         resume: Optional[_Path] = None, threads: Optional[_Integer] = None) -> RunResult:
     """Integrates one scene (a built-in name or a scene file) as `nonholo run` does and
@@ -328,7 +330,10 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
     the output interval they land on), rotation (scenes with 3-D rigid bodies:
     "moser-veselov", "moser-veselov-f" or "exponential"), accuracy (the accuracy check's
     tolerance, a fraction of the motion's extent, default 0.1; 0: off: a run above it ends with
-    summary["status"] "inaccurate", its frames kept); out also writes the CLI's file (CSV,
+    summary["status"] "inaccurate", its frames kept), accuracy_check (how the check estimates the
+    error: "companion", a second run at 2 dt alongside, which sees errors that grow; "sampled",
+    cheap and blind to growth; "auto", the default: the companion up to 300000 velocities;
+    summary["accuracy_check"] says which ran); out also writes the CLI's file (CSV,
     or HDF5 for .h5). With rigid bodies q holds each body's quaternion (w, x, y, z) and centre.
     checkpoint (an .h5 path) writes the run's whole state at its end (also when it fails or
     Ctrl-C stops it) and, with checkpoint_every (steps, or "60s"), during it;
@@ -347,7 +352,8 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
             ("scene", scene), ("dt", dt), ("set", set), ("method", method), ("order", order), ("hitch", hitch),
             ("every", every), ("backend", backend), ("restart", restart), ("restart_tol", restart_tol),
             ("monitor_every", monitor_every), ("composition", composition), ("tol", tol), ("rotation", rotation),
-            ("accuracy", accuracy), ("out", out), ("threads", threads)) if value is not None]
+            ("accuracy", accuracy), ("accuracy_check", accuracy_check), ("out", out),
+            ("threads", threads)) if value is not None]
         given += [name for name, flag in (("error_estimate", error_estimate), ("project", project)) if flag]
         if given:
             raise ValueError("%s with resume: a resumed run takes its scene and options from the checkpoint (only "
@@ -359,7 +365,8 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
         if scene is None:
             raise ValueError("scene: give a scene name or file (or resume= a checkpoint)")
         args = _run_arguments("run", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                              monitor_every, composition, error_estimate, project, tol, rotation, accuracy)
+                              monitor_every, composition, error_estimate, project, tol, rotation, accuracy,
+                              accuracy_check)
         _option(args, "every", "--every", every, _integer)
         _option(args, "out", "--out", out, _text)
         _option(args, "threads", "--threads", threads, _integer)
@@ -377,7 +384,7 @@ def batch(scene: _Path, *, count: _Integer, threads: Optional[_Integer] = None, 
           restart: Union[str, _Integer, None] = None, restart_tol: Optional[_Real] = None,
           monitor_every: Optional[_Integer] = None, composition: Optional[str] = None, error_estimate: bool = False,
           project: bool = False, tol: Optional[_Real] = None, rotation: Optional[str] = None,
-          accuracy: Optional[_Real] = None, check: bool = False,
+          accuracy: Optional[_Real] = None, accuracy_check: Optional[str] = None, check: bool = False,
           states: Union[bool, _Path, None] = None) -> BatchResult:
     """Many trajectories of one scene in parallel, as `nonholo batch` does: count
     trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
@@ -388,7 +395,8 @@ def batch(scene: _Path, *, count: _Integer, threads: Optional[_Integer] = None, 
     rows as usual, the others with status "interrupted". states=True keeps every trajectory's
     whole final state in the result's q and p; states=path (.h5) also writes them there."""
     args = _run_arguments("batch", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
-                          monitor_every, composition, error_estimate, project, tol, rotation, accuracy)
+                          monitor_every, composition, error_estimate, project, tol, rotation, accuracy,
+                          accuracy_check)
     args.extend(["--count", _integer("count", count)])
     _option(args, "threads", "--threads", threads, _integer)
     _option(args, "seed", "--seed", seed, _integer)

@@ -91,6 +91,11 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
   cmd->add_option("--accuracy", o.config.accuracy,
                   "reflection: end with status=inaccurate (exit 3, results kept) when the estimated error "
                   "in q exceeds this fraction of the motion's extent (default 0.1; 0: no check)");
+  cmd->add_option("--accuracy-check", o.config.accuracy_check,
+                  "how the accuracy check estimates the error: companion (a second run at 2 dt, adaptive "
+                  "steps at 10 tol, alongside: sees errors that grow; half the run's cost again), sampled "
+                  "(sampled step doubling: a few per cent, blind to growth) or auto (default: the companion "
+                  "up to 300000 velocities, sampled above)");
 }
 
 // A batch keeps one row of results per trajectory until it ends: refuse a --count whose rows

@@ -16,6 +16,11 @@ namespace nonholo {
 
 double doubling_factor(int order) { return std::ldexp(1.0, order + 1) - 2.0; }
 
+double companion_estimate(double difference, double ratio, double allowed) {
+  const double richardson = difference / std::abs(ratio - 1.0);
+  return std::max(ratio, 1.0) * richardson > allowed ? 3.0 * richardson : richardson;
+}
+
 DoublingEstimate::DoublingEstimate(Eigen::Index nq, int order, int every)
     : every_(every), factor_(doubling_factor(order)), single_factor_(1.0 - std::ldexp(1.0, -order)) {
   if (every < 2 || every % 2 != 0)

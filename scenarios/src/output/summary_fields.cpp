@@ -54,6 +54,7 @@ std::vector<SummaryField> RunSummary::fields() const {
   if (factorizations >= 0) integer("factorizations", factorizations);
   if (has_error_estimate || !std::isnan(error_estimate)) number("error_estimate", error_estimate);
   if (!std::isnan(extent)) number("extent", extent);
+  if (!accuracy_check.empty()) text("accuracy_check", accuracy_check);
   if (!std::isnan(stability_ratio)) number("stability_ratio", stability_ratio);
   text("backend", backend);
   if (threads > 0) integer("threads", threads);

@@ -87,6 +87,16 @@ void check_outputs(const RunConfig& config, PreparedRun& r) {
     throw std::invalid_argument("--accuracy " + std::to_string(config.accuracy) +
                                 ": must be a fraction of the motion's extent, at least 0 (0: off)");
   r.choice.accuracy_every = config.accuracy > 0.0 ? kAccuracyEvery : 0;
+  const std::string& check = config.accuracy_check;
+  if (check != "auto" && check != "companion" && check != "sampled")
+    throw std::invalid_argument("--accuracy-check " + check + ": auto, companion or sampled");
+  if (check != "auto" && config.method != "reflection" && config.method != "rk4")
+    throw std::invalid_argument("--accuracy-check " + check + ": the accuracy check is the reflection method's and "
+                                "rk4's (method " + config.method + "); --error-estimate compares any method with a "
+                                "companion");
+  if (check == "sampled" && config.adaptive)
+    throw std::invalid_argument("--accuracy-check sampled: adaptive steps (--tol) have no sampled check (their own "
+                                "step doubling sets the step); their check is the companion at 10 tol");
   const std::string& out = config.csv_path;
   if (!out.empty() && !is_hdf5_path(out) && out != "-" &&
       !is_csv_path(out))
@@ -162,6 +172,7 @@ PreparedRun prepare_run(const RunConfig& config) {
   if (config.error_estimate) r.companion = companion_of(r.choice);
   check_outputs(config, r);
   if (config.adaptive) choose_adaptive(config, r);
+  r.check = check_companion_of(r.choice);  // run if RunLoop::set_up chooses it (RunConfig::accuracy_check)
   return r;
 }
 

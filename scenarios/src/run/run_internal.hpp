@@ -28,6 +28,7 @@ struct PreparedRun {
   SceneInfo info;  // a built-in scene or one read from a file
   MethodChoice choice;
   Companion companion;  // --error-estimate
+  Companion check;      // the accuracy check's (RunConfig::accuracy_check)
   double dt = 0.0;
   double t_end = 0.0;  // the one used (the scene's when the config gave none)
   long steps = 0;

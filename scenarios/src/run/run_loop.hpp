@@ -47,6 +47,13 @@ struct LoopState {
   double lever_arm = 0.0;
   double difference = 0.0;  // --error-estimate: max over the output times of |q - q^|_inf
   std::string companion_failure;
+  // The accuracy check's companion (check_step): the max of |q - q_check|_inf so far, why it
+  // stopped if it failed, and (adaptive steps, which have no sampled check) the range of q.
+  double check_difference = 0.0;
+  std::string check_failure;
+  long check_restarts = 0;     // the companion started again from the run's state (reseed_check)
+  bool check_stepped = false;  // it has stepped since it (re)started
+  Vector q_min, q_max;
   long output_position = 0;  // CSV: bytes written; HDF5: frames
   std::uint64_t output_tail = 0;  // CSV: the hash of its last bytes before output_position
   std::string run_id;        // 16 random hex digits, a fresh run's: in its HDF5 output and checkpoints
@@ -88,6 +95,12 @@ class RunLoop {
   bool advance(long k);              // the method's step; false (status set) when it failed
   Diagnostics measure(long k);       // the step's diagnostics, held to the energy, residual and gap bounds
   void companion_step(long k, bool output);
+  void check_step(long k);
+  bool reseed_check();
+  bool wants_check_companion() const;
+  void include_in_extent();  // adaptive steps: the range of q
+  double largest_coordinate() const;  // ... and its largest |q_i|
+  void estimate_from_check();  // close_outputs: the accuracy check's estimate and extent
   void write_frame(const Diagnostics& d);
   void checkpoint_if_due(long k);
   void write_checkpoint_now(long k);
@@ -103,6 +116,8 @@ class RunLoop {
 
   std::optional<SceneSetup> setup_;  // the model and its start (set_up)
   std::unique_ptr<Runner> runner_, companion_;
+  std::unique_ptr<Runner> check_;  // the accuracy check's companion (RunConfig::accuracy_check)
+  bool check_companion_ = false;   // chosen for this run (check_ may since have failed)
   std::unique_ptr<StabilityWatch> stability_;
   std::unique_ptr<PrecisionWatch> precision_;
   std::unique_ptr<InArchive> archive_;  // a resumed run's checkpoint, read in phases

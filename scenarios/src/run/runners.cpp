@@ -431,6 +431,25 @@ Companion companion_of(const MethodChoice& c) {
   return out;
 }
 
+Companion check_companion_of(const MethodChoice& c) {
+  Companion out;
+  out.choice = c;
+  out.choice.accuracy_every = 0;
+  const double doubled = std::ldexp(1.0, c.method == "rk4" ? 4 : c.rattle.order);  // 2^p
+  out.stride = 2;
+  if (c.adaptive_on()) {
+    const bool looser = c.adaptive.tol <= 0.05;
+    out.choice.adaptive.tol = (looser ? 10.0 : 0.1) * c.adaptive.tol;
+    out.ratio = looser ? 10.0 : 0.1;  // (2^p where the output intervals cap the steps: RunLoop)
+    out.stride = looser ? 2 : 1;
+    return out;
+  }
+  out.choice.rattle.h = 2.0 * c.rattle.h;
+  out.choice.reference.h = 2.0 * c.reference.h;
+  out.ratio = doubled;
+  return out;
+}
+
 std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase) {
   if (c.rattle.order != 2 && c.method != "reflection")
     throw std::invalid_argument("--order " + std::to_string(c.rattle.order) +

@@ -108,8 +108,22 @@ struct MethodChoice {
 struct Companion {
   MethodChoice choice;
   double scale = 1.0;
+  // The accuracy check's companion (check_companion_of): how many times the run's error its own
+  // is, to leading order; and every how many of the run's steps (output intervals) it advances.
+  double ratio = 0.0;
+  int stride = 1;
 };
 Companion companion_of(const MethodChoice& choice);
+
+// The accuracy check's companion (RunConfig::accuracy_check), without an accuracy check of its
+// own, for the methods with one (the reflection step and RK4; not the baselines or ARKODE): the
+// same method at 2 h, advanced every two steps, whose error is 2^p times the run's. Adaptive
+// steps: at 10 tol, advanced every two output intervals (and to the last), so that it differs
+// from the run where the intervals cap the steps (there its error is 2^p times the run's) as
+// where the tolerance sets them (ratio 10: the controller keeps the local error per unit time in
+// proportion to tol). Above tol 0.05 (AdaptiveOptions::tol stays below 1) at tol / 10 instead,
+// advanced with the run (ratio 0.1).
+Companion check_companion_of(const MethodChoice& choice);
 
 // Told the name of each phase of a runner's set-up as it begins ("analysing C": the workspace
 // and the factorisation's analysis; "starting": the consistent initial state), for the set-up

@@ -10,60 +10,81 @@
 
 namespace nonholo::scenarios {
 
+namespace {
+
+// No comparison vouches for the result: not ok (veselova at dt 0.6, whose every step of 2 dt
+// failed, ended ok with error_estimate=0, 44-72 % of its extent off).
+void nothing_judged(RunSummary& summary, const DoublingEstimate& watch) {
+  std::ostringstream os;
+  os.precision(3);
+  summary.status = Status::Inaccurate;
+  summary.error_estimate = std::numeric_limits<double>::quiet_NaN();
+  const long failed = watch.failed_samples();
+  os << "the accuracy check took no sample: its step of 2 dt failed "
+     << (failed == 1 ? std::string("once") : std::to_string(failed) + " times") << " (first at "
+     << watch.first_failure() << "), so nothing judged the result; a step that fails at 2 dt = " << 2.0 * summary.dt
+     << " leaves dt = " << summary.dt << " within a factor 2 of what the method can take: use --dt "
+     << 0.5 * summary.dt << " or smaller. The results are written; --accuracy 0 accepts them unjudged";
+  summary.message = os.str();
+}
+
+}  // namespace
+
 // The accuracy check's verdict on a run that ended ok: status=inaccurate when the estimated error
-// exceeds the tolerance, a fraction of the motion's extent. The advice: the step that would meet
-// the tolerance if the error falls as dt^p, with a factor 2 to spare.
-void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, const DoublingEstimate& watch,
-                    bool has_orders) {
-  const double largest_coordinate = watch.largest_coordinate();
+// exceeds the tolerance, a fraction of the motion's extent (adaptive steps: or 10 tol). The advice:
+// the step that would meet the tolerance if the error falls as dt^p, with a factor 2 to spare
+// (adaptive steps: the tol, their error being about in proportion to it).
+void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, const DoublingEstimate* watch,
+                    double largest_coordinate, bool has_orders) {
+  if (watch) largest_coordinate = watch->largest_coordinate();
   if (summary.status != Status::Ok || !(config.accuracy > 0.0) || std::isnan(summary.extent)) return;
   summary.accuracy = config.accuracy;
-  // Every sample's step of 2 dt failed: nothing was compared, so nothing vouches for the result
-  // (veselova at dt 0.6 ended ok with error_estimate=0, 44-72 % of its extent off). Not ok.
-  if (watch.samples() == 0 && watch.failed_samples() > 0) {
-    std::ostringstream os;
-    os.precision(3);
-    summary.status = Status::Inaccurate;
-    summary.error_estimate = std::numeric_limits<double>::quiet_NaN();
-    const long failed = watch.failed_samples();
-    os << "the accuracy check took no sample: its step of 2 dt failed "
-       << (failed == 1 ? std::string("once") : std::to_string(failed) + " times") << " (first at " << watch.first_failure() << "), so nothing judged the result; a step that fails at "
-       << "2 dt = " << 2.0 * summary.dt << " leaves dt = " << summary.dt << " within a factor 2 of what the method "
-       << "can take: use --dt " << 0.5 * summary.dt << " or smaller. The results are written; --accuracy 0 "
-       << "accepts them unjudged";
-    summary.message = os.str();
-    return;
-  }
-  // Step doubling needs the step of 2 dt to be stable: from half the stability limit on, the
-  // shadow's error is that of an unstable step, not a measure of the run's (a stiff spring chain
-  // at 0.965 of the limit: estimate 11 where the error is 0.003). The stability warning says
+  const bool sampled = summary.accuracy_check == "sampled";
+  if (sampled && watch && watch->samples() == 0 && watch->failed_samples() > 0) return nothing_judged(summary, *watch);
+  // Step doubling and the companion need the step of 2 dt to be stable: from half the stability
+  // limit on, its error is that of an unstable step, not a measure of the run's (a stiff spring
+  // chain at 0.965 of the limit: estimate 11 where the error is 0.003). The stability warning says
   // what to do there.
   if (summary.stability_ratio >= 0.5) return;
   // A motion with no extent (a body at rest) is judged against round-off instead.
-  const double allowed = std::max(config.accuracy * summary.extent,
-                                  64 * std::numeric_limits<double>::epsilon() * largest_coordinate);
+  const double of_extent = std::max(config.accuracy * summary.extent,
+                                    64 * std::numeric_limits<double>::epsilon() * largest_coordinate);
+  const bool adaptive = config.adaptive;
+  const double allowed = adaptive ? std::min(of_extent, 10.0 * config.tol) : of_extent;
   const double e = summary.error_estimate;
   if (!(e > allowed) && !std::isnan(e)) return;
   std::ostringstream os;
   os.precision(3);
   summary.status = Status::Inaccurate;
   os << "the estimated error in q, " << e << ", is " << e / summary.extent << " of the motion's extent "
-     << summary.extent << " (the widest range a coordinate swept), above --accuracy " << config.accuracy << ": ";
-  const double suggested = summary.dt * 0.5 * std::pow(allowed / e, 1.0 / order);
-  if (watch.transient_samples() > 0)
-    os << "the step does not resolve a transient (from t = " << watch.first_transient()
+     << summary.extent << " (the widest range a coordinate swept)";
+  if (adaptive && allowed < of_extent)
+    os << ", more than 10 times --tol " << config.tol << ": ";
+  else
+    os << ", above --accuracy " << config.accuracy << ": ";
+  if (adaptive) {
+    // Their error is about in proportion to tol, at a ratio the motion sets (a fast chain: 14-22
+    // times at tol 1e-6 to 1e-3, order 4): a smaller tol gives a smaller error, not a better ratio.
+    const double ratio = e / config.tol;
+    os << "the adaptive steps' error here is " << ratio << " times their --tol (their budget assumes errors that do not "
+       << "grow); it falls about in proportion to --tol: for an error near " << config.tol << " use --tol "
+       << config.tol / ratio << " (judged the same way)";
+  } else if (watch && watch->transient_samples() > 0) {
+    os << "the step does not resolve a transient (from t = " << watch->first_transient()
        << ", a step of 2 dt and two of dt differ by more than 1 % of the speed): its error falls more slowly than "
           "dt^"
        << order << "; reduce --dt tenfold or more and compare error_estimate";
-  else if (std::isfinite(suggested) && suggested > 0.0)
-    os << "the step is too large for this motion; use --dt " << suggested << " or smaller (an order-" << order
-       << " method's error falls as dt^" << order << ")" << (has_orders ? ", or a higher --order" : "");
-  else
-    os << "the step is too large for this motion: reduce --dt";
+  } else {
+    const double suggested = summary.dt * 0.5 * std::pow(allowed / e, 1.0 / order);
+    if (std::isfinite(suggested) && suggested > 0.0)
+      os << "the step is too large for this motion; use --dt " << suggested << " or smaller (an order-" << order
+         << " method's error falls as dt^" << order << ")" << (has_orders ? ", or a higher --order" : "");
+    else
+      os << "the step is too large for this motion: reduce --dt";
+  }
   os << ". The results are written; --accuracy 0 turns the check off";
   summary.message = os.str();
 }
-
 
 std::string parasitic_warning(const RunSummary& r, const RattleOptions& o) {
   std::ostringstream os;

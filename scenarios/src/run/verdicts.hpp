@@ -18,9 +18,12 @@ inline constexpr double kParasiticWarning = 1e-3;
 inline constexpr double kGapKick = 1e-4;
 
 // The accuracy check's verdict on a run that ended ok: status=inaccurate, with the advice in
-// summary.message, when the estimated error exceeds config.accuracy of the motion's extent.
-void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, const DoublingEstimate& watch,
-                    bool has_orders);
+// summary.message, when the estimated error (summary.error_estimate: the companion's, or the
+// sampled `watch`'s) exceeds config.accuracy of the motion's extent, or, for adaptive steps,
+// 10 times their tol. `watch`: the sampled check, if the method has one (its failures, transients
+// and largest coordinate); `largest_coordinate` without one.
+void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, const DoublingEstimate* watch,
+                    double largest_coordinate, bool has_orders);
 // The warning of a run whose period-2 mode reached parasitic_max, with what would remove it.
 std::string parasitic_warning(const RunSummary& r, const RattleOptions& o);
 // What to change when the energy blew up: restarts for a grown period-2 mode, else a smaller step.

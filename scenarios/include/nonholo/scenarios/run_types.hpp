@@ -43,6 +43,11 @@ inline constexpr int kBodiesPerThread = 500;
 /// 1000 bodies, even at 2000 and 4000, 1.1-1.45 times faster at 10^4.
 inline constexpr int kHolonomicBodiesPerThread = 5000;
 
+/// RunConfig::accuracy_check "auto" runs the companion for models of up to this many velocities
+/// (10^5 planar bodies): above, its second state and workspace (half the run's memory again) and
+/// half the run's time again are what scaling runs cannot spare, and the sampled check runs.
+inline constexpr long kCompanionMaxVelocities = 300000;
+
 /// The options of `nonholo run` (run_scene()).
 struct RunConfig {
   std::string scene;  ///< a built-in scene's name, or a scene file (.json)
@@ -75,6 +80,12 @@ struct RunConfig {
   /// The accuracy check (README "Accuracy check"): status=inaccurate when the estimated error in q
   /// exceeds this fraction of the motion's extent (the widest range a coordinate swept). 0: off.
   double accuracy = 0.1;
+  /// How the accuracy check estimates the error (README "Accuracy check"): "companion" (a second
+  /// trajectory at 2 dt, adaptive steps at 10 tol, integrated alongside and compared: it sees
+  /// errors that grow, half the run's cost again), "sampled" (sampled step doubling: a few per cent,
+  /// blind to growth; fixed steps only), or "auto" (the companion up to kCompanionMaxVelocities
+  /// velocities, sampled above; adaptive steps always the companion).
+  std::string accuracy_check = "auto";
   bool project = false;  ///< reference methods: project onto the constraints after each step
   double tol = 1e-8;     ///< ARKODE methods: relative and absolute tolerance; see adaptive
   /// Reflection: adaptive steps (nonholo/adaptive.hpp; order 2 restarts at every step) aiming at
@@ -187,6 +198,9 @@ struct RunSummary {
   double extent = std::numeric_limits<double>::quiet_NaN();
   double accuracy = std::numeric_limits<double>::quiet_NaN();
   ///@}
+  /// Which estimate error_estimate is ("companion", "sampled"; "error-estimate" for
+  /// RunConfig::error_estimate's); empty: none.
+  std::string accuracy_check;
   /// Explicit fixed-step methods with applied forces: the largest dt / stability limit estimated
   /// (nonholo/stability.hpp); NaN when not applicable. A run refuses 1 or more, warns from 0.5.
   double stability_ratio = std::numeric_limits<double>::quiet_NaN();

@@ -14,8 +14,9 @@
 namespace nonholo::scenarios {
 
 // Bumped whenever the bytes change meaning: a checkpoint of another format version is refused.
-constexpr long kCheckpointFormat = 5;  // 2: RunConfig::threads; 3: RunSummary::setup_s; 4: the accuracy check's
-                                       // retries; 5: the run id and the output's identity
+constexpr long kCheckpointFormat = 6;  // 2: RunConfig::threads; 3: RunSummary::setup_s; 4: the accuracy check's
+                                       // retries; 5: the run id and the output's identity; 6: the
+                                       // accuracy check's companion
 
 struct CheckpointInfo {
   std::string scene, method;

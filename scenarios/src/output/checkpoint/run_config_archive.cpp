@@ -33,7 +33,7 @@ void fields(Archive& a, Config& c, Text& scene_text) {
   c.backend = static_cast<sparse::Backend>(backend);
   c.hitch = static_cast<HitchMode>(hitch);
   a(c.restart), a(c.restart_tol), a(c.monitor_every), a(c.method), a(c.order), a(c.composition), a(c.rotation);
-  a(c.error_estimate), a(c.accuracy), a(c.project), a(c.tol), a(c.adaptive), a(c.horizon);
+  a(c.error_estimate), a(c.accuracy), a(c.accuracy_check), a(c.project), a(c.tol), a(c.adaptive), a(c.horizon);
   a(c.threads);
 }
 
