@@ -156,6 +156,17 @@ TEST(RunBounds, DisplacementsBelowTheUlpAreRefused) {
   r = run_cli({"run", "sleigh", "--set", "y0=1e15", "--set", "omega0=0"});
   EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_THAT(r.err, Not(HasSubstr("digits")));
+  // A body at round-off speed, which the whole run moves by at most an ulp, loses nothing: it ran
+  // (it stopped as precision-loss: "x never moves"); a speed whose run moves x by 450 ulps that
+  // each step rounds away is lost, and refused.
+  for (const char* x0 : {"x0=1", "x0=-3"}) {
+    r = run_cli({"run", "sleigh", "--set", "v0=1e-17", "--set", "omega0=0", "--set", x0});
+    EXPECT_EQ(r.code, 0) << r.out << r.err;
+  }
+  r = run_cli({"run", "particle", "--set", "vx0=1e-18", "--set", "vy0=0", "--set", "x0=1", "--t-end", "100"});
+  EXPECT_EQ(r.code, 0) << r.out << r.err;
+  expect_stopped(run_cli({"run", "sleigh", "--set", "v0=1e-14", "--set", "omega0=0", "--set", "x0=1"}),
+                 "precision-loss", {"coordinate x = 1 at step 0", "below half an ulp"});
   // Every scene: a scene file's body far away, and the reference methods.
   const std::string path = ::testing::TempDir() + "far_sleigh.json";
   std::ofstream(path) << R"({"bodies": [{"mass": 1, "inertia": 1, "position": [3e16, 0], "velocity": [1, 0]}],

@@ -144,7 +144,8 @@ Status constraint_broken(double relative_residual, double gap, double lever_arm,
   return Status::BlewUp;
 }
 
-PrecisionWatch::PrecisionWatch(const Model& model, double speed_floor) : model_(model), speed_floor_(speed_floor) {}
+PrecisionWatch::PrecisionWatch(const Model& model, double speed_floor, double span)
+    : model_(model), speed_floor_(speed_floor), span_(span) {}
 
 namespace {
 
@@ -165,7 +166,7 @@ Status PrecisionWatch::check(ConstVecRef q, ConstVecRef v, double h, long step, 
   double fewest = std::numeric_limits<double>::infinity();
   int worst_q = -1, worst_v = -1;
   auto consider = [&](int iq, int iv) {
-    if (!(std::abs(v[iv]) >= moving)) return;
+    if (!(std::abs(v[iv]) >= moving) || std::abs(v[iv]) * span_ <= ulp(q[iq])) return;
     const double digits = std::log10(std::abs(h * v[iv]) / ulp(q[iq]));
     if (digits < fewest) {
       fewest = digits;

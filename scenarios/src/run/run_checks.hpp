@@ -101,15 +101,18 @@ inline Status check_constraints(double relative_residual, double gap, double lev
 // (x = 1e15 never moves by steps of 0.01: its ulp is 0.125). Checked before the first step and
 // every kEvery steps, O(n). Only coordinates that move count: |v_i| at least kMoving times the
 // largest |v_j|, so that a velocity crossing zero, or at round-off, is not taken for lost motion
-// (a coordinate this fast whose step rounds away loses at least a hundredth of the motion).
+// (a coordinate this fast whose step rounds away loses at least a hundredth of the motion). Nor
+// a coordinate that the whole run moves by at most an ulp (v = 1e-17 at x = 1 for t = 10: a body
+// at round-off speed, which stopped the run as precision-loss although nothing is lost).
 class PrecisionWatch {
  public:
   static constexpr long kEvery = 64;
   static constexpr double kMoving = 1e-2;
   static constexpr double kWarnDigits = 6.0;  // a step kept to fewer digits is warned about
 
-  // speed_floor: velocities at or below it are round-off (a body at rest under a force), not motion.
-  PrecisionWatch(const Model& model, double speed_floor);
+  // speed_floor: velocities at or below it are round-off (a body at rest under a force), not motion;
+  // span: the run's length in time (a coordinate it moves by at most an ulp does not count).
+  PrecisionWatch(const Model& model, double speed_floor, double span);
   // Before step `step` (0: the start): whether it is due.
   static bool due(long step) { return step % kEvery == 0; }
   // With the velocity v (n_v entries; empty: not checked). Ok, or PrecisionLoss with why in message.
@@ -121,6 +124,7 @@ class PrecisionWatch {
  private:
   const Model& model_;
   double speed_floor_;
+  double span_;
   std::string warning_;
 };
 

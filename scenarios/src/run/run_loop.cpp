@@ -332,7 +332,7 @@ void RunLoop::make_watches() {
   // relative accuracy: its relative residual is not judged.
   speed_floor_ = 64 * std::numeric_limits<double>::epsilon() * loop_.rest.speed;
   stability_ = std::make_unique<StabilityWatch>(setup_->model, run_.choice, run_.dt);
-  precision_ = std::make_unique<PrecisionWatch>(setup_->model, speed_floor_);
+  precision_ = std::make_unique<PrecisionWatch>(setup_->model, speed_floor_, run_.t_end - loop_.t0);
 }
 
 void RunLoop::resume() {
