@@ -51,6 +51,27 @@ class GlobalError {
   double q_sum_ = 0.0, v_sum_ = 0.0, tv_sum_ = 0.0;
 };
 
+/// The range each coordinate of q has swept over the states included: the extent of a motion (its
+/// widest range, the scale the accuracy check judges against) and the largest |q_i| (the round-off
+/// floor of a motion with no extent), each with the current q counted too.
+class Extent {
+ public:
+  explicit Extent(Eigen::Index nq = 0);
+  void include(ConstVecRef q);
+  double extent(ConstVecRef q_now) const;
+  double largest_coordinate(ConstVecRef q_now) const;
+  Eigen::Index size() const { return min_.size(); }
+  /// Checkpoints (archive.hpp): both bounds (an Extent of size 0 takes the stored size; one
+  /// sized by its model refuses another).
+  ///@{
+  void save(OutArchive& a) const { a(min_), a(max_); }
+  void load(InArchive& a);
+  ///@}
+
+ private:
+  Vector min_, max_;
+};
+
 /// (2^(p+1) - 2): the step-doubling difference of a method of order p in units of its local error.
 double doubling_factor(int order);
 
@@ -156,7 +177,7 @@ class DoublingEstimate {
  private:
   int every_;
   double factor_;
-  Vector q_min_, q_max_;  // the range each coordinate has swept, at the samples
+  Extent range_;          // the range each coordinate has swept, at the samples
   GlobalError error_;
   long step_ = 0;         // steps of the run seen so far
   long pending_at_ = -1;  // the run's step count when the shadow's pair ends (-1: none)

@@ -14,6 +14,30 @@
 
 namespace nonholo {
 
+Extent::Extent(Eigen::Index nq)
+    : min_(Vector::Constant(nq, std::numeric_limits<double>::infinity())),
+      max_(Vector::Constant(nq, -std::numeric_limits<double>::infinity())) {}
+
+void Extent::include(ConstVecRef q) {
+  min_ = min_.cwiseMin(q);
+  max_ = max_.cwiseMax(q);
+}
+
+double Extent::extent(ConstVecRef q) const { return (max_.cwiseMax(q) - min_.cwiseMin(q)).maxCoeff(); }
+
+double Extent::largest_coordinate(ConstVecRef q) const {
+  return std::max(max_.cwiseMax(q).cwiseAbs().maxCoeff(), min_.cwiseMin(q).cwiseAbs().maxCoeff());
+}
+
+void Extent::load(InArchive& a) {
+  if (size() > 0) {  // sized by the model: a checkpoint of another size is refused
+    a(min_), a(max_);
+    return;
+  }
+  a.resize_into(min_);
+  a.resize_into(max_);
+}
+
 double doubling_factor(int order) { return std::ldexp(1.0, order + 1) - 2.0; }
 
 double companion_estimate(double difference, double ratio, double allowed) {
@@ -25,14 +49,12 @@ DoublingEstimate::DoublingEstimate(Eigen::Index nq, int order, int every)
     : every_(every), factor_(doubling_factor(order)), single_factor_(1.0 - std::ldexp(1.0, -order)) {
   if (every < 2 || every % 2 != 0)
     throw std::invalid_argument("accuracy check: every = " + std::to_string(every) + " must be even and at least 2");
-  q_min_.setConstant(nq, std::numeric_limits<double>::infinity());
-  q_max_.setConstant(nq, -std::numeric_limits<double>::infinity());
+  range_ = Extent(nq);
   first_failure_.reserve(512);  // the first failure's text is copied in a step: no allocation there
 }
 
 void DoublingEstimate::include(ConstVecRef q) {
-  q_min_ = q_min_.cwiseMin(q);
-  q_max_ = q_max_.cwiseMax(q);
+  range_.include(q);
 }
 
 void DoublingEstimate::failed(double t, const char* status, const char* message) {
@@ -55,14 +77,12 @@ double DoublingEstimate::estimate() const {
 
 double DoublingEstimate::extent() const {
   if (!last_q_) return 0.0;
-  const Eigen::Map<const Vector> q(last_q_, q_min_.size());
-  return (q_max_.cwiseMax(q) - q_min_.cwiseMin(q)).maxCoeff();
+  return range_.extent(Eigen::Map<const Vector>(last_q_, range_.size()));
 }
 
 double DoublingEstimate::largest_coordinate() const {
   if (!last_q_) return 0.0;
-  const Eigen::Map<const Vector> q(last_q_, q_min_.size());
-  return std::max(q_max_.cwiseMax(q).cwiseAbs().maxCoeff(), q_min_.cwiseMin(q).cwiseAbs().maxCoeff());
+  return range_.largest_coordinate(Eigen::Map<const Vector>(last_q_, range_.size()));
 }
 
 namespace {
@@ -205,7 +225,8 @@ void AccuracyWatch::finish_shadow(const State& s) {
 
 void DoublingEstimate::save(OutArchive& a) const {
   a.tag("doubling-estimate");
-  a(every_), a(factor_), a(q_min_), a(q_max_);
+  a(every_), a(factor_);
+  range_.save(a);
   error_.save(a);
   a(step_), a(pending_at_), a(next_at_), a(interval_), a(last_end_), a(last_dq_), a(last_dv_), a(last_t_);
   a(last_fast_), a(t_), a(local_max_), a(samples_), a(failed_), a(transients_), a(fast_), a(first_transient_t_);
@@ -220,7 +241,7 @@ void DoublingEstimate::load(InArchive& a) {
   if (every != every_ || factor != factor_)
     throw std::runtime_error("checkpoint: the accuracy check's sampling (every " + std::to_string(every) +
                              ") or order differs from this run's (every " + std::to_string(every_) + ")");
-  a(q_min_), a(q_max_);
+  range_.load(a);
   error_.load(a);
   a(step_), a(pending_at_), a(next_at_), a(interval_), a(last_end_), a(last_dq_), a(last_dv_), a(last_t_);
   a(last_fast_), a(t_), a(local_max_), a(samples_), a(failed_), a(transients_), a(fast_), a(first_transient_t_);

@@ -115,7 +115,8 @@ void LoopState::save(OutArchive& a) const {
   a(rest.energy), a(rest.speed), a(j0), a(lever_arm), a(difference), a(companion_failure), a(output_position);
   a(static_cast<long>(output_tail)), a(run_id);  // (the hash's bits through a long)
   a(seconds);
-  a(check_difference), a(check_failure), a(q_min), a(q_max), a(check_restarts), a(check_stepped);
+  a(check_difference), a(check_failure), a(check_restarts), a(check_stepped);
+  range.save(a);
 }
 
 void LoopState::load(InArchive& a) {
@@ -131,10 +132,8 @@ void LoopState::load(InArchive& a) {
   a(tail), a(run_id);
   output_tail = static_cast<std::uint64_t>(tail);
   a(seconds);
-  a(check_difference), a(check_failure);
-  a.resize_into(q_min);
-  a.resize_into(q_max);
-  a(check_restarts), a(check_stepped);
+  a(check_difference), a(check_failure), a(check_restarts), a(check_stepped);
+  range.load(a);
 }
 
 RunLoop::RunLoop(const PreparedRun& run, const Parameters& params, const RunConfig& config,
@@ -581,18 +580,12 @@ bool RunLoop::reseed_check() {
 }
 
 double RunLoop::largest_coordinate() const {
-  if (loop_.q_min.size() == 0) return 0.0;
-  return std::max(loop_.q_min.cwiseAbs().maxCoeff(), loop_.q_max.cwiseAbs().maxCoeff());
+  return loop_.range.size() > 0 ? loop_.range.largest_coordinate(runner_->q()) : 0.0;
 }
 
 void RunLoop::include_in_extent() {
-  const ConstVecRef q = runner_->q();
-  if (loop_.q_min.size() != q.size()) {
-    loop_.q_min = q;
-    loop_.q_max = q;
-  }
-  loop_.q_min = loop_.q_min.cwiseMin(q);
-  loop_.q_max = loop_.q_max.cwiseMax(q);
+  if (loop_.range.size() == 0) loop_.range = Extent(runner_->q().size());
+  loop_.range.include(runner_->q());
 }
 
 // The companion's estimate (companion_estimate) replaces the sampled check's where it compared;
@@ -601,7 +594,7 @@ void RunLoop::include_in_extent() {
 void RunLoop::estimate_from_check() {
   RunSummary& summary = summary_;
   const bool adaptive = run_.choice.adaptive_on();
-  if (adaptive && loop_.q_min.size() > 0) summary.extent = (loop_.q_max - loop_.q_min).maxCoeff();
+  if (adaptive && loop_.range.size() > 0) summary.extent = loop_.range.extent(runner_->q());
   if (check_ && summary.steps >= (adaptive ? 1 : 2)) {
     double ratio = run_.check.ratio;
     // Adaptive steps capped by the output intervals (about a pair per interval, as judge() warns):

@@ -4,6 +4,7 @@
 // RunLoop holds what the phases share; integrate_scene (run_internal.hpp) runs them in order.
 // The step itself is the method's (runners.hpp); the bounds each step is held to are
 // run_checks.hpp's, the verdicts at the end verdicts.hpp's.
+#include <nonholo/accuracy.hpp>
 #include <nonholo/archive.hpp>
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/scenarios/run_types.hpp>
@@ -53,7 +54,7 @@ struct LoopState {
   std::string check_failure;
   long check_restarts = 0;     // the companion started again from the run's state (reseed_check)
   bool check_stepped = false;  // it has stepped since it (re)started
-  Vector q_min, q_max;
+  Extent range;
   long output_position = 0;  // CSV: bytes written; HDF5: frames
   std::uint64_t output_tail = 0;  // CSV: the hash of its last bytes before output_position
   std::string run_id;        // 16 random hex digits, a fresh run's: in its HDF5 output and checkpoints
