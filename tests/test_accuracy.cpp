@@ -480,7 +480,8 @@ TEST(Accuracy, TheCompanionSeesErrorsThatGrow) {
            {"run", "sleigh_chain", "--set", "bodies=30", "--set", "omega0=39.45", "--set", "v0=1.311", "--dt", "0.0005",
             "--hitch", "oneform"},
            {"run", "sleigh_chain", "--set", "bodies=20", "--set", "omega0=49.49", "--set", "v0=4.184", "--dt", "0.001"},
-           {"run", "sleigh_chain", "--set", "bodies=20", "--set", "omega0=38.39", "--set", "v0=9.283", "--dt", "0.001"}}) {
+           {"run", "sleigh_chain", "--set", "bodies=20", "--set", "omega0=38.39", "--set", "v0=9.283", "--dt",
+            "0.001"}}) {
     const auto r = run_cli(args);
     EXPECT_EQ(r.code, 3) << r.out << r.err;
     const auto kv = summary_of(r.out);

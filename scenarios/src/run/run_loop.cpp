@@ -94,6 +94,12 @@ int method_order(const RunConfig& config, const MethodChoice& choice) {
   return config.method == "rk4" ? 4 : config.method == "dla-left" ? 1 : 2;
 }
 
+// Whether the output intervals capped a method's own steps: about `per_interval` steps (a pair for
+// adaptive composed steps, one for ARKODE) in each of `intervals`, within a sixteenth.
+bool capped_by_intervals(long internal, long intervals, long per_interval) {
+  return internal <= per_interval * (intervals + intervals / 16);
+}
+
 // Why the accuracy check's companion stopped (at t; NaN: it could not start).
 std::string check_failure_text(const PreparedRun& run, const std::string& why, double t) {
   std::ostringstream os;
@@ -115,7 +121,7 @@ void LoopState::save(OutArchive& a) const {
   a(rest.energy), a(rest.speed), a(j0), a(lever_arm), a(difference), a(companion_failure), a(output_position);
   a(static_cast<long>(output_tail)), a(run_id);  // (the hash's bits through a long)
   a(seconds);
-  a(check_difference), a(check_failure), a(check_restarts), a(check_stepped);
+  a(check_difference), a(check_failure), a(check_stepped);
   range.save(a);
 }
 
@@ -132,7 +138,7 @@ void LoopState::load(InArchive& a) {
   a(tail), a(run_id);
   output_tail = static_cast<std::uint64_t>(tail);
   a(seconds);
-  a(check_difference), a(check_failure), a(check_restarts), a(check_stepped);
+  a(check_difference), a(check_failure), a(check_stepped);
   range.load(a);
 }
 
@@ -537,7 +543,8 @@ void RunLoop::check_step(long k) {
   const Status cs = check_->advance(loop_.t0 + static_cast<double>(k) * run_.dt);
   if (cs == Status::Interrupted) {  // a stop request: the loop stops before its next step
   } else if (cs != Status::Ok) {
-    const std::string why = check_failure_text(run_, to_string(cs) + std::string(": ") + check_->message(), check_->t());
+    const std::string why =
+        check_failure_text(run_, to_string(cs) + std::string(": ") + check_->message(), check_->t());
     // Its own trajectory failed (its period-2 mode or gap iteration at 2 dt: the 200-body train at
     // t = 87, whose run is fine): started again from the run's state, the difference so far kept.
     // Failing again on its first step, a step of 2 dt fails from the run's own state: dt is
@@ -574,7 +581,6 @@ bool RunLoop::reseed_check() {
   s.q0 = Vector();
   s.v0 = Vector();
   if (!made) return false;
-  ++loop_.check_restarts;
   loop_.check_stepped = false;
   return true;
 }
@@ -599,7 +605,7 @@ void RunLoop::estimate_from_check() {
     double ratio = run_.check.ratio;
     // Adaptive steps capped by the output intervals (about a pair per interval, as judge() warns):
     // the companion's are twice as long, its error 2^p times the run's, not 10 times.
-    if (adaptive && run_.check.stride == 2 && runner_->internal_steps() <= 2 * (summary.steps + summary.steps / 16))
+    if (adaptive && run_.check.stride == 2 && capped_by_intervals(runner_->internal_steps(), summary.steps, 2))
       ratio = std::ldexp(1.0, method_order(config_, run_.choice));
     summary.error_estimate = companion_estimate(loop_.check_difference, ratio, config_.accuracy * summary.extent);
     // Where the sampled check saw a transient faster than the step at the start (a pair of steps
@@ -747,13 +753,13 @@ void RunLoop::judge() {
   // ARKODE stops at every output time (--dt): one step per interval means that its error
   // control wanted longer steps than --dt allowed, at the cost of evaluations.
   const long internal = runner_->internal_steps();
-  if (choice.adaptive_on() && summary.steps >= 4 && internal <= 2 * (summary.steps + summary.steps / 16))
+  if (choice.adaptive_on() && summary.steps >= 4 && capped_by_intervals(internal, summary.steps, 2))
     add_warning(summary, "the adaptive steps took about one pair per output interval (" + std::to_string(internal) +
                              " steps for " + std::to_string(summary.steps) +
                              " intervals): --dt, the output interval, probably capped them; a larger --dt lets "
                              "the error control choose longer steps");
   else if (!choice.adaptive_on() && internal >= 0 && summary.steps >= 4 &&
-           internal <= summary.steps + summary.steps / 16)
+           capped_by_intervals(internal, summary.steps, 1))
     add_warning(summary, "ARKODE took about one step per output interval (" + std::to_string(internal) +
                              " steps for " + std::to_string(summary.steps) +
                              " intervals): --dt, its output interval, probably capped its step; a larger --dt "

@@ -52,8 +52,7 @@ struct LoopState {
   // stopped if it failed, and (adaptive steps, which have no sampled check) the range of q.
   double check_difference = 0.0;
   std::string check_failure;
-  long check_restarts = 0;     // the companion started again from the run's state (reseed_check)
-  bool check_stepped = false;  // it has stepped since it (re)started
+  bool check_stepped = false;  // it has stepped since it (re)started (reseed_check)
   Extent range;
   long output_position = 0;  // CSV: bytes written; HDF5: frames
   std::uint64_t output_tail = 0;  // CSV: the hash of its last bytes before output_position

@@ -66,8 +66,8 @@ void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, con
     // Their error is about in proportion to tol, at a ratio the motion sets (a fast chain: 14-22
     // times at tol 1e-6 to 1e-3, order 4): a smaller tol gives a smaller error, not a better ratio.
     const double ratio = e / config.tol;
-    os << "the adaptive steps' error here is " << ratio << " times their --tol (their budget assumes errors that do not "
-       << "grow); it falls about in proportion to --tol: for an error near " << config.tol << " use --tol "
+    os << "the adaptive steps' error here is " << ratio << " times their --tol (their budget assumes errors that do "
+       << "not grow); it falls about in proportion to --tol: for an error near " << config.tol << " use --tol "
        << config.tol / ratio << " (judged the same way)";
   } else if (watch && watch->transient_samples() > 0) {
     os << "the step does not resolve a transient (from t = " << watch->first_transient()
