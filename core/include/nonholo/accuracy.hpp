@@ -56,11 +56,11 @@ class GlobalError {
 /// floor of a motion with no extent), each with the current q counted too.
 class Extent {
  public:
-  explicit Extent(Eigen::Index nq = 0);
-  void include(ConstVecRef q);
-  double extent(ConstVecRef q_now) const;
-  double largest_coordinate(ConstVecRef q_now) const;
-  Eigen::Index size() const { return min_.size(); }
+  explicit Extent(Eigen::Index nq = 0);  ///< for nq coordinates, nothing included yet
+  void include(ConstVecRef q);             ///< q into the range
+  double extent(ConstVecRef q_now) const;  ///< the widest range, q_now counted too
+  double largest_coordinate(ConstVecRef q_now) const;  ///< the largest |q_i|, q_now counted too
+  Eigen::Index size() const { return min_.size(); }    ///< the coordinates (0: not sized yet)
   /// Checkpoints (archive.hpp): both bounds (an Extent of size 0 takes the stored size; one
   /// sized by its model refuses another).
   ///@{
