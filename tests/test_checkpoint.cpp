@@ -8,6 +8,8 @@
 
 #include "support/expect_error.hpp"
 #include "support/run_cli.hpp"
+#include "support/same_summary.hpp"
+#include "support/temp_files.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -28,9 +30,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string temp(const std::string& name) {
-  return (fs::temp_directory_path() / ("nonholo_ckpt_" + std::to_string(::getpid()) + "_" + name)).string();
-}
+std::string temp(const std::string& name) { return testing::temp_path("ckpt", name); }
 
 // Files named as a temporary of `path` is (.NAME.XXXXXX, replacing_file.hpp) in its directory.
 int beside(const std::string& path) {
@@ -42,12 +42,8 @@ int beside(const std::string& path) {
   return count;
 }
 
-std::string bytes_of(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream os;
-  os << in.rdbuf();
-  return os.str();
-}
+using testing::bytes_of;
+using testing::expect_same_summary;
 
 // Stops the run (as Ctrl-C would) once it has seen `frames` frames; calls `at` on each frame.
 class StopAfter final : public FrameSink {
@@ -66,22 +62,6 @@ class StopAfter final : public FrameSink {
 };
 
 RunConfig config_of(const std::vector<std::string>& args) { return parse_run_arguments(args); }
-
-// Every summary value but the timings, bit for bit.
-void expect_same_summary(const RunSummary& a, const RunSummary& b, const std::string& label) {
-  const auto fa = a.fields(), fb = b.fields();
-  ASSERT_EQ(fa.size(), fb.size()) << label << "\n" << a.line() << "\n" << b.line();
-  for (std::size_t i = 0; i < fa.size(); ++i) {
-    const SummaryField &x = fa[i], &y = fb[i];
-    EXPECT_EQ(x.key, y.key) << label;
-    if (x.key == "wall_s" || x.key == "setup_s" || x.key == "ns_per_step" || x.key == "ns_per_body_step") continue;
-    EXPECT_EQ(std::memcmp(&x.number, &y.number, sizeof(double)), 0) << label << ": " << x.key << " " << x.number << " against " << y.number;
-    EXPECT_EQ(x.integer, y.integer) << label << ": " << x.key;
-    EXPECT_EQ(x.text, y.text) << label << ": " << x.key;
-  }
-  EXPECT_EQ(a.message, b.message) << label;
-  EXPECT_EQ(a.warning, b.warning) << label;
-}
 
 struct Case {
   std::string label;

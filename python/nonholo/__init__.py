@@ -27,13 +27,16 @@ from . import _core
 from ._core import *  # noqa: F401,F403  (the library's API)
 
 if _typing.TYPE_CHECKING:  # names for the annotations only, kept out of the module's namespace
-    from typing import Any, Dict, Iterable, List, Mapping, Optional, Tuple, Union
+    from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Tuple, Union
 
     from numpy.typing import NDArray
 
     _Path = Union[str, "_os.PathLike[str]"]
     _Real = Union[float, "_np.floating[Any]", "_np.integer[Any]"]
     _Integer = Union[int, "_np.integer[Any]"]
+    _Vector = Union["NDArray[Any]", Iterable[_Real]]  # q0=, v0=: 1-D, converted to float64
+    _Condition = Union[str, Callable[[float, "NDArray[Any]"], Any]]  # stop=: "x0>10" or f(t, q) -> bool
+    _Stops = Union[_Condition, Iterable[_Condition]]
     _Assignments = Union[Mapping[str, _Real], str, Iterable[str]]  # set=: {NAME: value} or "NAME=VALUE"s
     _Ranges = Union[Mapping[str, Tuple[_Real, _Real]], str, Iterable[str]]  # vary=: {NAME: (lo, hi)} or "NAME=LO:HI"s
 
@@ -309,7 +312,28 @@ def _finish(result, d, check, what):
     return result
 
 
-def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Optional[_Real] = None,
+def _stop_conditions(stop, stop_every):
+    """stop=: the texts for --stop-when and the callables as (name, f, every)."""
+    every = 1 if stop_every is None else int(_integer("stop_every", stop_every))
+    if every < 1:
+        raise ValueError("stop_every=%d: check the conditions every 1 step or more" % every)
+    items = [] if stop is None else [stop] if isinstance(stop, str) or callable(stop) else list(stop)
+    texts, calls = [], []
+    for item in items:
+        if isinstance(item, str):
+            texts.append(item)
+        elif callable(item):
+            calls.append((str(getattr(item, "__name__", "stop")), item, every))
+        else:
+            raise ValueError("stop: expected a condition as text ('x0>10') or a callable f(t, q) -> bool, got %r"
+                             % (item,))
+    if stop_every is not None and not calls:
+        raise ValueError("stop_every: it spaces the checks of callables given as stop=; the texts are checked "
+                         "after every step")
+    return texts, calls
+
+
+def run(scene: Union[_Path, "Model", None] = None, *, dt: Optional[_Real] = None, t_end: Optional[_Real] = None,
         set: Optional[_Assignments] = None, method: Optional[str] = None, order: Optional[_Integer] = None,
         hitch: Optional[str] = None, every: Optional[_Integer] = None, backend: Optional[str] = None,
         restart: Union[str, _Integer, None] = None, restart_tol: Optional[_Real] = None,
@@ -318,9 +342,26 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
         accuracy: Optional[_Real] = None, accuracy_check: Optional[str] = None, out: Optional[_Path] = None,
         check: bool = False,
         checkpoint: Optional[_Path] = None, checkpoint_every: Union[str, _Integer, None] = None,
-        resume: Optional[_Path] = None, threads: Optional[_Integer] = None) -> RunResult:
-    """Integrates one scene (a built-in name or a scene file) as `nonholo run` does and
-    returns a RunResult with its frames and summary.
+        resume: Optional[_Path] = None, threads: Optional[_Integer] = None,
+        q0: Optional[_Vector] = None, v0: Optional[_Vector] = None, t0: Optional[_Real] = None,
+        state: Optional["State"] = None, name: Optional[str] = None, stop: Optional[_Stops] = None,
+        stop_every: Optional[_Integer] = None) -> RunResult:
+    """Integrates one scene (a built-in name or a scene file) as `nonholo run` does, or a Model
+    built in code, and returns a RunResult with its frames and summary.
+
+    A Model (ModelBuilder.build()) runs through the same run with the same options, checks,
+    outputs and checkpoints, from q0 (n_q entries) with the velocity guess v0 (n_v), projected
+    onto the constraints as start_from_velocity does, at time t0 (default 0), or from state= a
+    State (start_from_velocity's or one step() advanced); dt and t_end (the end time) are then
+    required and set does not apply; name names it in the summary and the files (default
+    "model"). run(model, resume=path) continues its checkpoint with the same model.
+
+    stop ends the run where a condition first holds (summary["status"] "stopped", the frames
+    up to the step that saw it kept; summary["stopped_by"] names it and summary["t_stop"] is the
+    first time it held, found by bisection on the interpolant between the last two checks): a
+    text as the tool's --stop-when takes it ("x0>10", "theta2<-1", "hitch-angle>1.2", "gap>0.01";
+    checked after every step, in C++), a callable f(t, q) -> bool (called with the GIL every
+    stop_every steps, default 1, and at the interpolated states), or a list of them.
 
     Every option is the command line's (None: the tool's default): dt, t_end, set (a dict of
     scene parameters, or "NAME=VALUE" strings), method, order, hitch, every (keep every K-th
@@ -347,33 +388,56 @@ def run(scene: Optional[_Path] = None, *, dt: Optional[_Real] = None, t_end: Opt
     summary["status"] saying why (check=True raises RunError instead). Ctrl-C
     raises KeyboardInterrupt with the frames so far in its .result.
     """
+    model = scene if isinstance(scene, _core.Model) else None
+    stop_texts, stop_calls = _stop_conditions(stop, stop_every)
+    starts = [key for key, value in (("q0", q0), ("v0", v0), ("t0", t0), ("state", state), ("name", name))
+              if value is not None]
+    if model is None and starts:
+        raise ValueError("%s: the start of a model built in code (run(model, q0=..., v0=...)); a scene starts "
+                         "where it says" % ", ".join(starts))
     if resume is not None:
-        given = [name for name, value in (
-            ("scene", scene), ("dt", dt), ("set", set), ("method", method), ("order", order), ("hitch", hitch),
+        given = [key for key, value in (
+            ("scene" if model is None else "name", scene if model is None else name), ("dt", dt), ("set", set),
+            ("method", method), ("order", order), ("hitch", hitch),
             ("every", every), ("backend", backend), ("restart", restart), ("restart_tol", restart_tol),
             ("monitor_every", monitor_every), ("composition", composition), ("tol", tol), ("rotation", rotation),
             ("accuracy", accuracy), ("accuracy_check", accuracy_check), ("out", out),
-            ("threads", threads)) if value is not None]
-        given += [name for name, flag in (("error_estimate", error_estimate), ("project", project)) if flag]
+            ("threads", threads), ("q0", q0), ("v0", v0), ("t0", t0), ("state", state),
+            ("stop (a text: the checkpoint's)", stop_texts or None)) if value is not None]
+        given += [key for key, flag in (("error_estimate", error_estimate), ("project", project)) if flag]
         if given:
-            raise ValueError("%s with resume: a resumed run takes its scene and options from the checkpoint (only "
-                             "t_end, checkpoint and checkpoint_every may be given)" % ", ".join(given))
+            raise ValueError("%s with resume: a resumed run takes its %s and options from the checkpoint (only "
+                             "t_end, checkpoint and checkpoint_every may be given)"
+                             % (", ".join(given), "scene" if model is None else "start"))
         args: List[str] = []
         _option(args, "t_end", "--t-end", t_end, _number)
         _option(args, "resume", "--resume", resume, _text)
     else:
         if scene is None:
-            raise ValueError("scene: give a scene name or file (or resume= a checkpoint)")
-        args = _run_arguments("run", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+            raise ValueError("scene: give a scene name or file, or a Model (or resume= a checkpoint)")
+        if model is not None:
+            if state is not None and (q0 is not None or v0 is not None or t0 is not None):
+                raise ValueError("state with q0, v0 or t0: give the start as a State or as t0, q0 and v0")
+            if state is None and (q0 is None or v0 is None):
+                raise ValueError("q0 and v0 (or state=): a model built in code starts where you say")
+            if set is not None:
+                raise ValueError("set: the parameters of a scene; a model built in code has its own in the code")
+        label = _scene("model" if name is None else name, "run") if model is not None else scene
+        args = _run_arguments("run", label, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
                               monitor_every, composition, error_estimate, project, tol, rotation, accuracy,
                               accuracy_check)
         _option(args, "every", "--every", every, _integer)
         _option(args, "out", "--out", out, _text)
         _option(args, "threads", "--threads", threads, _integer)
+        args.extend("--stop-when=" + text for text in stop_texts)
     _option(args, "checkpoint", "--checkpoint", checkpoint, _text)
     _option(args, "checkpoint_every", "--checkpoint-every", checkpoint_every,
             lambda k, v: _text(k, v) if isinstance(v, str) else _integer(k, v))
-    d = _call_tool(_core._run, _keywords(run), args)
+    if model is None:
+        d = _call_tool(_core._run, _keywords(run), args, stop_calls)
+    else:
+        start_time = 0.0 if t0 is None else float(_number("t0", t0))
+        d = _call_tool(_core._run_model, _keywords(run), model, args, start_time, q0, v0, state, stop_calls)
     return _finish(RunResult(d), d, check, "run")
 
 

@@ -1,7 +1,8 @@
 // The scenes and the command-line tool's run and batch in Python. Both take the tool's own
 // arguments (nonholo/__init__.py turns keywords into them), so that options are checked, and
 // refused, with the tool's messages, and a run computes exactly what `nonholo run` computes.
-// The C++ runs without the GIL (scenes call no Python); frames go into arrays instead of CSV.
+// The C++ runs without the GIL (scenes call no Python; a model's callables take it); frames go into
+// arrays instead of CSV. A model built in code runs the same way (_run_model).
 #include <nonholo/scenarios/batch.hpp>
 #include <nonholo/scenarios/command_line.hpp>
 #include <nonholo/scenarios/run.hpp>
@@ -19,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "bind_common.hpp"
 #include "bindings.hpp"
 
 namespace nonholo::python {
@@ -95,15 +97,8 @@ py::dict summary_dict(const RunSummary& s) {
   return d;
 }
 
-py::dict run(const std::vector<std::string>& args) {
-  scenarios::RunConfig config = scenarios::parse_run_arguments(args);
-  ArraySink sink;
-  config.sink = &sink;
-  RunSummary summary;
-  {
-    py::gil_scoped_release release;
-    summary = scenarios::run_scene(config);
-  }
+// A run's summary and frames as the dict nonholo.RunResult reads.
+py::dict run_dict(const RunSummary& summary, ArraySink& sink) {
   const auto frames = static_cast<py::ssize_t>(sink.t.size());
   const auto n = static_cast<py::ssize_t>(sink.names.size());
   const auto nv = static_cast<py::ssize_t>(sink.velocity_names.empty() ? sink.names.size() : sink.velocity_names.size());
@@ -123,6 +118,81 @@ py::dict run(const std::vector<std::string>& args) {
     out["interrupt"] = sink.error->value();
   }
   return out;
+}
+
+// Python callables as stop conditions: (name, f(t, q) -> truth value, every). Each call takes the
+// GIL and gets a copy of q; an exception (or a result without a truth value) fails the run with
+// status=callback-failed naming it.
+std::vector<scenarios::StopCondition> stop_conditions(const py::list& given) {
+  std::vector<scenarios::StopCondition> out;
+  for (const py::handle item : given) {
+    const auto entry = item.cast<py::tuple>();
+    scenarios::StopCondition c;
+    c.name = entry[0].cast<std::string>();
+    c.every = entry[2].cast<long>();
+    const Callable f(py::reinterpret_borrow<py::object>(entry[1]));
+    const std::string what = c.name + "(t, q)";
+    c.holds = [f, what](double t, ConstVecRef q) {
+      return callback_detail::invoke(what.c_str(), [&] {
+        const py::object result = f(t, callback_detail::copy(q));
+        const int truth = PyObject_IsTrue(result.ptr());
+        if (truth < 0) throw py::error_already_set();
+        return truth == 1;
+      });
+    };
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+py::dict run(const std::vector<std::string>& args, const py::list& conditions) {
+  scenarios::RunConfig config = scenarios::parse_run_arguments(args);
+  config.stop_conditions = stop_conditions(conditions);
+  ArraySink sink;
+  config.sink = &sink;
+  RunSummary summary;
+  {
+    py::gil_scoped_release release;
+    summary = scenarios::run_scene(config);
+  }
+  return run_dict(summary, sink);
+}
+
+// A 1-D array of `size` numbers named `what`, for the start (ValueError otherwise).
+Vector start_vector(const py::object& value, const char* what) {
+  if (value.is_none()) return Vector();
+  auto a = Array::ensure(value);
+  if (!a) {
+    PyErr_Clear();
+    throw py::value_error(std::string(what) + ": expected a 1-D array of numbers, got " +
+                          callback_detail::type_name(value));
+  }
+  if (a.ndim() != 1)
+    throw py::value_error(std::string(what) + ": expected a 1-D array, got " + std::to_string(a.ndim()) +
+                          " dimension(s)");
+  return Eigen::Map<const Vector>(a.data(), a.size());
+}
+
+// A model built in code, run as a scene is (scenarios::run_model): the same arguments but the
+// scene (args[0], the model's name), the start from t0, q0, v0 or a State. The run holds no GIL:
+// a model's Python callables take it for each call.
+py::dict run_model(const PyModel& model, const std::vector<std::string>& args, double t0, const py::object& q0,
+                   const py::object& v0, const std::optional<State>& state, const py::list& conditions) {
+  scenarios::RunConfig config = scenarios::parse_run_arguments(args);
+  config.stop_conditions = stop_conditions(conditions);
+  scenarios::RunStart start;
+  start.t0 = t0;
+  start.q0 = start_vector(q0, "q0");
+  start.v0 = start_vector(v0, "v0");
+  start.state = state;
+  ArraySink sink;
+  config.sink = &sink;
+  RunSummary summary;
+  {
+    py::gil_scoped_release release;
+    summary = scenarios::run_model(model.model, start, config);
+  }
+  return run_dict(summary, sink);
 }
 
 // Runs the batch on a thread of its own while this one, Python's, lets the signal handlers run
@@ -240,8 +310,13 @@ py::list scenes() {
 }  // namespace
 
 void bind_run(py::module_& m) {
-  m.def("_run", &run, py::arg("args"),
-        "nonholo run with the command line's arguments (the scene first): a dict of the summary and arrays");
+  m.def("_run", &run, py::arg("args"), py::arg("conditions") = py::list(),
+        "nonholo run with the command line's arguments (the scene first) and stop conditions in Python "
+        "((name, f, every) tuples): a dict of the summary and arrays");
+  m.def("_run_model", &run_model, py::arg("model"), py::arg("args"), py::arg("t0"), py::arg("q0"), py::arg("v0"),
+        py::arg("state"), py::arg("conditions") = py::list(),
+        "run() of a model built in code: the command line's arguments (the model's name first), its start and "
+        "stop conditions in Python");
   m.def("_batch", &batch, py::arg("args"), py::arg("keep_states") = false,
         "nonholo batch with the command line's arguments: a dict of the summary and the table's columns (and "
         "the final states with keep_states)");

@@ -219,6 +219,12 @@ void add_run_command(CLI::App* cmd, RunOptions& run, std::string& checkpoint_eve
                   "write the trajectory to FILE.csv, or FILE.h5 / FILE.hdf5 (HDF5, with p, gap and the summary), or "
                   "- (CSV on standard output; the summary line then goes to standard error)");
   cmd->add_option("--every", run.config.every, "write every K-th step to the CSV (default 1)");
+  cmd->add_option("--stop-when", run.config.stop_when,
+                  "end the run (status=stopped, exit 0) where a condition first holds, checked after every step: "
+                  "NAME>VALUE or NAME<VALUE for a coordinate (x0>10), hitch-angle>VALUE (radians, consecutive "
+                  "planar bodies), gap>VALUE (holonomic constraints); repeatable")
+      ->take_all()
+      ->allow_extra_args(false);
   cmd->add_option("--threads", run.config.threads,
                   "threads for one step of the chain (--hitch oneform, a chain of knife edges and hitches): "
                   "default 0: a thread per 500 bodies, up to every core this process may use");
@@ -399,7 +405,8 @@ int dispatch(int argc, const char* const* argv, std::ostream& out, std::ostream&
     (run.config.csv_path == "-" ? err : out) << summary.line() << std::endl;  // --out -: the CSV is stdout
     if (!summary.warning.empty()) say(err, "nonholo run: warning: " + summary.warning);
     if (!summary.threads_note.empty()) say(err, "nonholo run: note: " + summary.threads_note);
-    if (summary.status != Status::Ok) {
+    if (summary.status == Status::Stopped) say(err, "nonholo run: " + summary.message);
+    if (summary.status != Status::Ok && summary.status != Status::Stopped) {
       say(err, "nonholo run: " + summary.message);
       if (summary.status == Status::Inaccurate) return kInaccurateExit;
       return summary.status == Status::Interrupted ? kInterruptedExit : 2;

@@ -26,3 +26,19 @@ def summary_of(line):
 def without_timings(line):
     """The summary line without what the clock measures."""
     return " ".join(w for w in line.split() if not w.startswith(("wall_s=", "setup_s=", "ns_per_step=", "ns_per_body_step=")))
+
+
+def chain_builder(n, thrust=1.0):
+    """n sleighs hitched body by body (knife edge of b, then the hitch b -> b+1), as the
+    scenes' chains: a chain of elements, stepped by the fused sweep without Python."""
+    import nonholo
+    b = nonholo.ModelBuilder()
+    for i in range(n):
+        b.add_planar_body([f"x{i}", f"y{i}", f"theta{i}"], 1.0, 0.1)
+    for i in range(n):
+        b.add_knife_edge(i, a=0.1)
+        if i + 1 < n:
+            b.add_hitch(i, i + 1, 0.5, 0.5)
+    if thrust is not None:
+        b.add_thrust(0, force=thrust, torque=0.2)
+    return b

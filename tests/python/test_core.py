@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import nonholo
+from support import chain_builder
 
 # The paper's nonholonomic particle (docs/design.md section 5): R^3, M = I, zdot - y xdot = 0, with
 # a velocity already in D (vz0 = y0 vx0) so that the exact solution's data hold as given.
@@ -463,21 +464,6 @@ def test_no_leaks_when_callbacks_fail_or_models_go():
     del model, ws, s
     gc.collect()
     assert (sys.getrefcount(bias), sys.getrefcount(payload)) == before
-
-
-def chain_builder(n, thrust=1.0):
-    """n sleighs hitched body by body (knife edge of b, then the hitch b -> b+1), as the
-    scenes' chains: a chain of elements, stepped by the fused sweep without Python."""
-    b = nonholo.ModelBuilder()
-    for i in range(n):
-        b.add_planar_body([f"x{i}", f"y{i}", f"theta{i}"], 1.0, 0.1)
-    for i in range(n):
-        b.add_knife_edge(i, a=0.1)
-        if i + 1 < n:
-            b.add_hitch(i, i + 1, 0.5, 0.5)
-    if thrust is not None:
-        b.add_thrust(0, force=thrust, torque=0.2)
-    return b
 
 
 def chain_start(model, ws):

@@ -166,6 +166,7 @@ EXIT_CASES = [
     ("non-finite-state", ["run", "sleigh", "--set", "v0=1e200"]),
     ("precision-loss", ["run", "sleigh", "--set", "x0=1e15", "--t-end", "1"]),
     ("blew-up", ["run", "sleigh", "--method", "dla-left", "--dt", "1"]),
+    ("stopped", ["run", "sleigh", "--stop-when", "x>0.5"]),
 ]
 
 

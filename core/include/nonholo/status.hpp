@@ -31,9 +31,10 @@ enum class Status {
   WorkspaceBusy,        ///< another call is using the workspace (busy_flag.hpp); its message is that call's
   PrecisionLoss,        ///< a run's coordinates are so large that a step's displacement is below their ulp
   StepSizeTooSmall,     ///< adaptive steps: the error test failed down to the smallest step allowed
+  Stopped,              ///< a run ended by one of its stop conditions (results kept)
 };
 /// The last enumerator (for loops over all of them, the Python enum's).
-inline constexpr Status kLastStatus = Status::StepSizeTooSmall;
+inline constexpr Status kLastStatus = Status::Stopped;
 
 /// The status's name as the summary line prints it: "ok", "gap-not-converged", ...
 const char* to_string(Status status);

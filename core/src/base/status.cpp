@@ -34,6 +34,7 @@ const char* to_string(Status status) {
     case Status::WorkspaceBusy: return "workspace-busy";
     case Status::PrecisionLoss: return "precision-loss";
     case Status::StepSizeTooSmall: return "step-size-too-small";
+    case Status::Stopped: return "stopped";
   }
   return "unknown";
 }

@@ -10,7 +10,7 @@ namespace {
 
 // A field added to RunSummary must be added to fields() below, or MPI batches would lose it:
 // this fails to compile until then (the size on x86-64 Linux, libstdc++).
-static_assert(sizeof(void*) != 8 || sizeof(RunSummary) == 608,
+static_assert(sizeof(void*) != 8 || sizeof(RunSummary) == 648,
               "RunSummary changed: add the new field to fields() in batch_row.cpp, then update this size");
 
 // Every field of RunSummary, in one order for both directions.
@@ -25,7 +25,7 @@ void fields(Archive& a, Summary& s) {
   a(s.tol), a(s.adaptive_steps), a(s.rejected);
   a(s.has_momentum), a(s.has_error_estimate);
   a(s.momentum_drift_max), a(s.rotation), a(s.legendre_iterations_max), a(s.threads);
-  a(s.threads_note), a(s.setup_s), a(s.accuracy_check);
+  a(s.threads_note), a(s.setup_s), a(s.accuracy_check), a(s.stopped_by), a(s.t_stop);
 }
 
 }  // namespace

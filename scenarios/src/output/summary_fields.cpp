@@ -56,6 +56,10 @@ std::vector<SummaryField> RunSummary::fields() const {
   if (!std::isnan(extent)) number("extent", extent);
   if (!accuracy_check.empty()) text("accuracy_check", accuracy_check);
   if (!std::isnan(stability_ratio)) number("stability_ratio", stability_ratio);
+  if (!stopped_by.empty()) {
+    text("stopped_by", stopped_by);
+    number("t_stop", t_stop);
+  }
   text("backend", backend);
   if (threads > 0) integer("threads", threads);
   text("status", to_string(status));

@@ -1,6 +1,6 @@
-// `nonholo run` (run_scene): the options checked once into a PreparedRun (prepare_run, in
-// phases: the method, the steps, the outputs, adaptive steps), a checkpoint's options for a
-// resume, then one trajectory (run_loop.cpp).
+// `nonholo run` (run_scene) and runs of models built in code (run_model): the options checked
+// once into a PreparedRun (prepare_run, prepare_model_run, in phases: the method, the steps, the
+// outputs, adaptive steps), a checkpoint's options for a resume, then one trajectory (run_loop.cpp).
 #include <nonholo/scenarios/run.hpp>
 
 #include <nonholo/scenarios/scene_file.hpp>
@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "output/checkpoint/checkpoint_file.hpp"
+#include "output/checkpoint/model_fingerprint.hpp"
 #include "output/checkpoint/run_config_archive.hpp"
 #include "output/file_identity.hpp"
 #include "output/hdf5_output.hpp"
@@ -63,12 +64,12 @@ void choose_method(const RunConfig& config, PreparedRun& r) {
     throw std::invalid_argument("--project applies to the methods rk4, arkode-dp5, arkode-verner and arkode-fehlberg8");
 }
 
-// Whole steps of size dt; the run ends at the first multiple of dt at or after t_end.
+// Whole steps of size dt from r.t0; the run ends at the first multiple of dt at or after t_end.
 void count_steps(const RunConfig& config, double t_end, PreparedRun& r) {
   if (!std::isfinite(t_end)) throw std::invalid_argument("t_end must be finite");
   if (config.every < 1)
     throw std::invalid_argument("--every " + std::to_string(config.every) + ": must be at least 1");
-  const double ratio = t_end / r.dt;
+  const double ratio = (t_end - r.t0) / r.dt;
   if (!(ratio <= kMaxSteps)) {
     std::ostringstream os;
     os.precision(3);
@@ -125,7 +126,7 @@ void choose_adaptive(const RunConfig& config, PreparedRun& r) {
   r.choice.adaptive.tol = config.tol;
   // Order 2 restarts lambda~ at every step (adaptive.hpp): say so in the summary.
   if (config.order == 2) set_restart(r.choice.rattle.restart, "1");
-  r.choice.adaptive.horizon = config.horizon > 0.0 ? config.horizon : r.t_end;  // the scenes start at t = 0
+  r.choice.adaptive.horizon = config.horizon > 0.0 ? config.horizon : r.t_end - r.t0;
   try {
     validate(r.choice.adaptive);
   } catch (const std::invalid_argument& e) {
@@ -138,12 +139,14 @@ void choose_adaptive(const RunConfig& config, PreparedRun& r) {
 }
 
 // The options of a resumed run: the checkpoint's, with the caller's t_end (if set), checkpoint
-// settings (by default the checkpoint resumed from is kept up to date), sink and stop.
-RunConfig resumed_config(const RunConfig& given, const std::string& bytes) {
+// settings (by default the checkpoint resumed from is kept up to date), sink, stop flag and stop
+// conditions in code; and what the run integrated.
+RunConfig resumed_config(const RunConfig& given, const std::string& bytes, RunSource& source) {
   RunConfig saved;
   try {
     InArchive a(bytes);
     load(a, saved);
+    load(a, source);
   } catch (const std::runtime_error& e) {
     throw std::invalid_argument("--resume " + given.resume_path + ": " + e.what());
   }
@@ -154,43 +157,105 @@ RunConfig resumed_config(const RunConfig& given, const std::string& bytes) {
   saved.resume_path = given.resume_path;
   saved.sink = given.sink;
   saved.stop = given.stop;
+  saved.stop_conditions = given.stop_conditions;
   return saved;
+}
+
+// The checks after the scene or model (r.info, r.t0), in this order, so that of several bad
+// options the same one is named first.
+void check_options(const RunConfig& config, double t_end, PreparedRun& r) {
+  choose_method(config, r);
+  count_steps(config, t_end, r);
+  // The companion's choice as the method's so far (its accuracy check at the default schedule).
+  if (config.error_estimate) r.companion = companion_of(r.choice);
+  check_outputs(config, r);
+  if (config.adaptive) choose_adaptive(config, r);
+  r.check = check_companion_of(r.choice);  // run if RunLoop::set_up chooses it (RunConfig::accuracy_check)
+}
+
+// A run's summary once its trajectory has ended: the whole run's wall time.
+RunSummary finished(TrajectoryResult&& result, Progress& progress, std::chrono::steady_clock::time_point start_time) {
+  progress.finish();
+  RunSummary summary = std::move(result.summary);
+  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  return summary;
+}
+
+// The checkpoint to resume from (empty: none), refused when `t_end` is before it.
+std::string checkpoint_to_resume(const RunConfig& given) {
+  if (given.resume_path.empty()) return {};
+  CheckpointInfo at;
+  std::string bytes = read_checkpoint(given.resume_path, &at);
+  // An end before the checkpoint ran no step and ended ok at the checkpoint's time.
+  if (given.t_end >= 0.0 && given.t_end < at.t) {
+    std::ostringstream os;
+    os << "--t-end " << given.t_end << " is before the checkpoint's t = " << at.t << " (" << given.resume_path
+       << "): a resumed run goes on from there; give a later end, or none for the run's own";
+    throw std::invalid_argument(os.str());
+  }
+  return bytes;
+}
+
+// A State to start from: the model's sizes and finite values (its consistency is the caller's).
+void check_start_state(const Model& model, const State& s) {
+  const Eigen::Index nq = model.num_configuration(), nv = model.num_velocities(), m = model.num_one_forms();
+  if (s.q.size() != nq || s.p.size() != nv || s.lambda.size() != m || s.force.size() != nv)
+    throw std::invalid_argument("the start's state has " + std::to_string(s.q.size()) + " configuration entries, " +
+                                std::to_string(s.p.size()) + " momenta, " + std::to_string(s.lambda.size()) +
+                                " multipliers and " + std::to_string(s.force.size()) + " forces; the model has " +
+                                std::to_string(nq) + ", " + std::to_string(nv) + ", " + std::to_string(m) + " and " +
+                                std::to_string(nv) + ": start the state for this model");
+  if (!std::isfinite(s.t) || !s.q.allFinite() || !s.p.allFinite() || !s.lambda.allFinite() || !s.force.allFinite())
+    throw std::invalid_argument("the start's state is not finite (its t, q, p, lambda or force): start it again");
 }
 
 }  // namespace
 
-// The checks run in this order, so that of several bad options the same one is named first.
 PreparedRun prepare_run(const RunConfig& config) {
   PreparedRun r;
   r.info = is_scene_file(config.scene) ? load_scene_file(config.scene) : find_scene(config.scene);
   if (is_scene_file(config.scene) && !config.assignments.empty())
     throw std::invalid_argument("--set does not apply to a scene file (" + config.scene + "): edit the file");
   r.dt = config.dt > 0.0 ? config.dt : r.info.default_dt;
-  choose_method(config, r);
-  count_steps(config, config.t_end >= 0.0 ? config.t_end : r.info.default_t_end, r);
-  // The companion's choice as the method's so far (its accuracy check at the default schedule).
-  if (config.error_estimate) r.companion = companion_of(r.choice);
-  check_outputs(config, r);
-  if (config.adaptive) choose_adaptive(config, r);
-  r.check = check_companion_of(r.choice);  // run if RunLoop::set_up chooses it (RunConfig::accuracy_check)
+  check_options(config, config.t_end >= 0.0 ? config.t_end : r.info.default_t_end, r);
+  return r;
+}
+
+PreparedRun prepare_model_run(const RunConfig& config, double t0) {
+  PreparedRun r;
+  r.from_code = true;
+  r.t0 = t0;
+  r.info.name = config.scene.empty() ? "model" : config.scene;
+  if (is_scene_file(r.info.name))
+    throw std::invalid_argument("scene " + r.info.name + ": a model built in code is run under a name, not a scene "
+                                "file's (.json) path; give it another name");
+  if (!config.assignments.empty())
+    throw std::invalid_argument("--set sets a scene's parameters: a model built in code has its parameters in the code");
+  if (!(config.dt > 0.0))
+    throw std::invalid_argument("--dt " + std::to_string(config.dt) +
+                                ": give the step (a model built in code has no default)");
+  if (config.t_end < 0.0)
+    throw std::invalid_argument("--t-end: give the end time (a model built in code has no default)");
+  if (config.t_end < t0) {
+    std::ostringstream os;
+    os.precision(17);
+    os << "--t-end " << config.t_end << " is before the start's t0 = " << t0 << ": give the time the run ends at";
+    throw std::invalid_argument(os.str());
+  }
+  r.dt = config.dt;
+  check_options(config, config.t_end, r);
   return r;
 }
 
 RunSummary run_scene(const RunConfig& given) {
   const auto start_time = std::chrono::steady_clock::now();
-  std::string resume;
-  if (!given.resume_path.empty()) {
-    CheckpointInfo at;
-    resume = read_checkpoint(given.resume_path, &at);
-    // An end before the checkpoint ran no step and ended ok at the checkpoint's time.
-    if (given.t_end >= 0.0 && given.t_end < at.t) {
-      std::ostringstream os;
-      os << "--t-end " << given.t_end << " is before the checkpoint's t = " << at.t << " (" << given.resume_path
-         << "): a resumed run goes on from there; give a later end, or none for the run's own";
-      throw std::invalid_argument(os.str());
-    }
-  }
-  const RunConfig config = resume.empty() ? given : resumed_config(given, resume);
+  std::string resume = checkpoint_to_resume(given);
+  RunSource source;
+  const RunConfig config = resume.empty() ? given : resumed_config(given, resume, source);
+  if (source.from_code)
+    throw std::invalid_argument("--resume " + given.resume_path + ": the checkpoint is of a model built in code (" +
+                                config.scene + "), which only its code can build again: resume it with run_model "
+                                "(Python: nonholo.run(model, resume=...)) and the same model");
   PreparedRun run = prepare_run(config);
   run.resume = std::move(resume);
   Parameters params = run.info.defaults();
@@ -199,10 +264,29 @@ RunSummary run_scene(const RunConfig& given) {
   TrajectoryHooks hooks;
   hooks.progress = hooks.setup_status = &progress;
   hooks.started = start_time;
-  RunSummary summary = integrate_scene(run, params, config, hooks).summary;
-  progress.finish();
-  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
-  return summary;
+  return finished(integrate_scene(run, params, config, hooks), progress, start_time);
+}
+
+RunSummary run_model(const Model& model, const RunStart& start, const RunConfig& given) {
+  const auto start_time = std::chrono::steady_clock::now();
+  std::string resume = checkpoint_to_resume(given);
+  RunSource source;
+  const RunConfig config = resume.empty() ? given : resumed_config(given, resume, source);
+  if (!resume.empty() && !source.from_code)
+    throw std::invalid_argument("--resume " + given.resume_path + ": the checkpoint is of the scene " + config.scene +
+                                ", not of a model built in code: resume it with run_scene (nonholo run --resume)");
+  if (!resume.empty() && source.fingerprint != model_fingerprint(model)) throw wrong_model(given.resume_path);
+  if (resume.empty() && start.state) check_start_state(model, *start.state);
+  // A resumed run starts as the run saved did (its start is in the checkpoint), then loads its state.
+  const RunStart& from = resume.empty() ? start : source.start;
+  PreparedRun run = prepare_model_run(config, from.state ? from.state->t : from.t0);
+  run.resume = std::move(resume);
+  const Parameters none(run.info.name, {});
+  Progress progress(run.info.name, run.steps);
+  TrajectoryHooks hooks;
+  hooks.progress = hooks.setup_status = &progress;
+  hooks.started = start_time;
+  return finished(integrate_model(run, model, from, none, config, hooks), progress, start_time);
 }
 
 }  // namespace nonholo::scenarios

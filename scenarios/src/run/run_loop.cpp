@@ -19,6 +19,7 @@
 
 #include "output/batch_row.hpp"
 #include "output/checkpoint/checkpoint_file.hpp"
+#include "output/checkpoint/model_fingerprint.hpp"
 #include "output/checkpoint/run_config_archive.hpp"
 #include "run/verdicts.hpp"
 
@@ -142,15 +143,24 @@ void LoopState::load(InArchive& a) {
   range.load(a);
 }
 
-RunLoop::RunLoop(const PreparedRun& run, const Parameters& params, const RunConfig& config,
-                 const TrajectoryHooks& hooks)
-    : run_(run), params_(params), config_(config), hooks_(hooks), reflection_(config.method == "reflection") {}
+RunLoop::RunLoop(const PreparedRun& run, const Model& model, const RunStart& start, const Parameters& params,
+                 const RunConfig& config, const TrajectoryHooks& hooks, std::function<void()> release_start,
+                 Clock::time_point started)
+    : run_(run),
+      model_(model),
+      start_(start),
+      release_start_(std::move(release_start)),
+      params_(params),
+      config_(config),
+      hooks_(hooks),
+      reflection_(config.method == "reflection"),
+      run_start_(started) {}
 
 TrajectoryResult RunLoop::run() {
-  run_start_ = Clock::now();
-  set_up();
   // Ctrl-C during a long set-up (a 10^7-body chain's: a minute) ends the run at the next phase,
   // before anything is written (it waited for the whole set-up and wrote the first frame).
+  if (stop_signalled()) return interrupted_in_set_up();
+  set_up();
   if (stop_signalled()) return interrupted_in_set_up();
   read_loop_state();
   open_outputs();
@@ -168,30 +178,27 @@ TrajectoryResult RunLoop::run() {
 // Models with this many coordinates and more hand set-up's freed heap back (8 MB vectors).
 constexpr int kTrimFromCoordinates = 1 << 20;
 
-// "setting up sleigh_chain (1000000 bodies): building model...": the body count from the
-// parameters until the model says.
+// "setting up sleigh_chain (1000000 bodies): analysing C..." (bodies < 0: not known yet).
+static void report_setup(const TrajectoryHooks& hooks, const std::string& name, long bodies, const char* phase) {
+  if (!hooks.setup_status) return;
+  std::string line = "setting up " + name;
+  if (bodies > 0) line += " (" + std::to_string(bodies) + (bodies == 1 ? " body)" : " bodies)");
+  hooks.setup_status->status(line + ": " + phase + "...");
+}
+
 void RunLoop::set_up() {
-  long bodies = -1;
-  for (const auto& spec : params_.specs())
-    if (spec.name == "bodies") bodies = std::lround(params_["bodies"]);
-  auto status = [this, &bodies](const char* phase) {
-    if (!hooks_.setup_status) return;
-    std::string line = "setting up " + run_.info.name;
-    if (bodies > 0) line += " (" + std::to_string(bodies) + (bodies == 1 ? " body)" : " bodies)");
-    hooks_.setup_status->status(line + ": " + phase + "...");
-  };
-  status("building model");
-  setup_.emplace(run_.info.build(params_));
-  if (stop_signalled()) return;  // run() reports it: no method is started
-  bodies = setup_->model.num_bodies();
-  if (hooks_.on_model) hooks_.on_model(setup_->model);
-  const SetupPhase phase = status;
-  const ThreadChoice threads = choose_threads(config_.threads, setup_->model, reflection_, config_.hitch);
+  if (hooks_.on_model) hooks_.on_model(model_);
+  stops_ = std::make_unique<StopWatch>(model_, config_);  // a bad --stop-when is refused first
+  if (stops_->empty()) stops_.reset();
+  const SetupPhase phase = [this](const char* p) { report_setup(hooks_, run_.info.name, model_.num_bodies(), p); };
+  // (Only where a checkpoint is written or read: it reads every name and mass.)
+  if (!config_.checkpoint_path.empty() || !run_.resume.empty()) fingerprint_ = model_fingerprint(model_);
+  const ThreadChoice threads = choose_threads(config_.threads, model_, reflection_, config_.hitch);
   thread_warning_ = threads.warning;
   MethodChoice choice = run_.choice;
   choice.threads = threads.threads;
   try {
-    runner_ = make_runner(*setup_, choice, phase);
+    runner_ = make_runner(model_, start_, choice, phase);
   } catch (const std::invalid_argument& e) {  // a scene file's start: name the file
     if (!is_scene_file(config_.scene)) throw;
     throw std::invalid_argument(config_.scene + ": " + e.what());
@@ -201,26 +208,24 @@ void RunLoop::set_up() {
   if (config_.error_estimate) {
     MethodChoice companion = run_.companion.choice;
     companion.threads = threads.threads;
-    companion_ = make_runner(*setup_, companion, phase);
+    companion_ = make_runner(model_, start_, companion, phase);
     companion_->set_stop([this] { return stop_signalled(); });
   }
   if ((check_companion_ = wants_check_companion())) {
     MethodChoice check = run_.check.choice;
     check.threads = threads.threads;
     try {
-      check_ = make_runner(*setup_, check, phase);
+      check_ = make_runner(model_, start_, check, phase);
       check_->set_stop([this] { return stop_signalled(); });
     } catch (const std::exception& e) {  // (a step of 2 dt out of range, say): the sampled check judges
       loop_.check_failure = check_failure_text(run_, e.what(), std::numeric_limits<double>::quiet_NaN());
     }
   }
-  // The runners have made their starts from q0 and v0: nothing reads them again (a million-body
-  // chain's are 48 MB).
-  setup_->q0 = Vector();
-  setup_->v0 = Vector();
+  if (!release_start_) return;
+  release_start_();
   // What set-up freed inside the heap, for a model whose buffers are large (not each small
   // trajectory of a batch: the trim walks and locks every arena).
-  if (setup_->model.num_configuration() >= kTrimFromCoordinates) sparse::release_free_memory();
+  if (model_.num_configuration() >= kTrimFromCoordinates) sparse::release_free_memory();
 }
 
 // A resumed run: the loop's state from the checkpoint (after the options, which prepare_run
@@ -230,6 +235,9 @@ void RunLoop::read_loop_state() {
   archive_ = std::make_unique<InArchive>(run_.resume);
   RunConfig saved;
   load(*archive_, saved);
+  RunSource source;
+  load(*archive_, source);
+  if (source.fingerprint != fingerprint_) throw wrong_model(config_.resume_path);
   loop_.load(*archive_);
 }
 
@@ -237,7 +245,7 @@ void RunLoop::read_loop_state() {
 // The output and the checkpoint are locked first, before a file is cut or created: a second run
 // writing either is refused (file_lock.hpp).
 void RunLoop::open_outputs() {
-  const Model& model = setup_->model;
+  const Model& model = model_;
   const bool resuming = archive_ != nullptr;
   const std::string& out = config_.csv_path;
   if (!out.empty() && out != "-") output_lock_ = FileLock::take(out, "output");
@@ -261,7 +269,7 @@ void RunLoop::open_outputs() {
 }
 
 void RunLoop::describe_run() {
-  const Model& model = setup_->model;
+  const Model& model = model_;
   const MethodChoice& choice = run_.choice;
   RunSummary& summary = summary_;
   summary.scene = run_.info.name;
@@ -295,7 +303,7 @@ void RunLoop::describe_run() {
 }
 
 void RunLoop::start() {
-  const Model& model = setup_->model;
+  const Model& model = model_;
   const double dt = run_.dt;
   loop_.d0 = runner_->diagnostics();
   loop_.power0 = forced_ ? power_now() : 0.0;
@@ -329,6 +337,26 @@ void RunLoop::start() {
   if (summary_.status == Status::Ok) summary_.status = stability_->check(*runner_, 0, summary_.message);
   if (summary_.status == Status::Ok)
     summary_.status = precision_->check(runner_->q(), runner_->velocity(), dt, 0, summary_.message);
+  if (summary_.status == Status::Ok) stop_condition_holds(0);
+}
+
+// A stop condition that holds (after step k; 0: at the start) ends the run: the summary's
+// stopped_by and t_stop now, status=stopped once the verdicts are made (judge). One that threw
+// fails the run with its message.
+bool RunLoop::stop_condition_holds(long k) {
+  if (!stops_) return false;
+  const bool held = k == 0 ? stops_->check_start(runner_->t(), runner_->q(), runner_->velocity())
+                           : stops_->check(k, k == run_.steps, runner_->t(), runner_->q(), runner_->velocity());
+  if (!held) return false;
+  if (!stops_->failure().empty()) {
+    summary_.status = Status::CallbackFailed;
+    summary_.message = (k == 0 ? std::string("at the start: ") : "after step " + std::to_string(k) + ": ") +
+                       stops_->failure() + "; the output holds every row up to step " + std::to_string(k);
+  } else {
+    summary_.stopped_by = stops_->fired();
+    summary_.t_stop = stops_->t_stop();
+  }
+  return true;
 }
 
 // The stability and precision watches, once the rest scales are known (measured or loaded).
@@ -336,8 +364,8 @@ void RunLoop::make_watches() {
   // A velocity at round-off of the rest scale (a body at rest) satisfies no constraint to any
   // relative accuracy: its relative residual is not judged.
   speed_floor_ = 64 * std::numeric_limits<double>::epsilon() * loop_.rest.speed;
-  stability_ = std::make_unique<StabilityWatch>(setup_->model, run_.choice, run_.dt);
-  precision_ = std::make_unique<PrecisionWatch>(setup_->model, speed_floor_, run_.t_end - loop_.t0);
+  stability_ = std::make_unique<StabilityWatch>(model_, run_.choice, run_.dt);
+  precision_ = std::make_unique<PrecisionWatch>(model_, speed_floor_, run_.t_end - loop_.t0);
 }
 
 void RunLoop::resume() {
@@ -351,12 +379,26 @@ void RunLoop::resume() {
                                 to_string(summary_.status) + " at step " + std::to_string(loop_.k) + " (" +
                                 summary_.message + "): there is nothing to continue");
   }
+  if (!summary_.stopped_by.empty()) {
+    std::ostringstream os;
+    os.precision(17);
+    os << "--resume " << config_.resume_path << ": the run was stopped by its condition " << summary_.stopped_by
+       << " at t = " << summary_.t_stop << " (step " << loop_.k << "): there is nothing to continue";
+    throw std::invalid_argument(os.str());
+  }
   runner_->load(*archive_);
   if (companion_) companion_->load(*archive_);
   if (check_ && loop_.check_failure.empty()) check_->load(*archive_);
   if (!loop_.check_failure.empty()) check_.reset();  // it had failed before the checkpoint
   stability_->load(*archive_);
   precision_->load(*archive_);
+  bool stops = false;
+  (*archive_)(stops);
+  if (stops != static_cast<bool>(stops_))
+    throw std::invalid_argument("--resume " + config_.resume_path + ": the run was " +
+                                (stops ? "given stop conditions and this one none" : "given no stop conditions and this one some") +
+                                ": give the conditions the run was given (conditions in code are not saved)");
+  if (stops_) stops_->load(*archive_);
   if (!archive_->done()) throw std::runtime_error("checkpoint: bytes left over after the run's state");
 }
 
@@ -365,10 +407,11 @@ void RunLoop::loop() {
   if (hooks_.progress) hooks_.progress->begin_steps();
   loop_start_ = Clock::now();
   summary_.setup_s = std::chrono::duration<double>(loop_start_ - run_start_).count();
-  for (long k = loop_.k + 1; k <= run_.steps && summary_.status == Status::Ok; ++k) {
+  for (long k = loop_.k + 1; k <= run_.steps && summary_.status == Status::Ok && summary_.stopped_by.empty(); ++k) {
     if (stop_requested(k) || watches_fail(k) || !advance(k)) break;
     const Diagnostics d = measure(k);
-    const bool output = k % config_.every == 0 || k == run_.steps;
+    const bool stop_now = summary_.status == Status::Ok && stop_condition_holds(k);
+    const bool output = stop_now || k % config_.every == 0 || k == run_.steps;
     if (companion_) companion_step(k, output);
     if (check_companion_) check_step(k);
     if (output && (csv_ || !sinks_.empty())) {
@@ -383,6 +426,7 @@ void RunLoop::loop() {
       output_s_ += seconds_since(out_start);
     }
     checkpoint_if_due(k);
+    if (stop_now) break;
     if (hooks_.progress && (k & 15) == 0) hooks_.progress->update(k);  // it reads the clock: not every step
   }
   loop_s_ = loop_.seconds + seconds_since(loop_start_) - output_s_ - companion_s_;
@@ -530,7 +574,7 @@ bool RunLoop::wants_check_companion() const {
   if (!(config_.accuracy > 0.0) || config_.error_estimate || config_.accuracy_check == "sampled") return false;
   if (run_.choice.adaptive_on()) return true;
   if (!runner_->accuracy()) return false;  // a method without a check
-  return config_.accuracy_check == "companion" || setup_->model.num_velocities() <= kCompanionMaxVelocities;
+  return config_.accuracy_check == "companion" || model_.num_velocities() <= kCompanionMaxVelocities;
 }
 
 // The accuracy check's companion: one step of 2 dt every two steps (adaptive steps: its own to
@@ -563,24 +607,15 @@ void RunLoop::check_step(long k) {
 // The companion made again from the run's state (its configuration and velocity, valid after
 // measure()): a rare event, which allocates (a new runner) outside the steps.
 bool RunLoop::reseed_check() {
-  SceneSetup& s = *setup_;
-  const double t0 = s.t0;
-  s.t0 = runner_->t();
-  s.q0 = runner_->q();
-  s.v0 = runner_->velocity();
+  const RunStart from_run{runner_->t(), runner_->q(), runner_->velocity(), {}};
   MethodChoice choice = run_.check.choice;
   choice.threads = runner_->threads();
-  bool made = true;
   try {
-    check_ = make_runner(s, choice);
+    check_ = make_runner(model_, from_run, choice);
     check_->set_stop([this] { return stop_signalled(); });
   } catch (const std::exception&) {
-    made = false;
+    return false;
   }
-  s.t0 = t0;
-  s.q0 = Vector();
-  s.v0 = Vector();
-  if (!made) return false;
   loop_.check_stepped = false;
   return true;
 }
@@ -679,12 +714,15 @@ void RunLoop::write_checkpoint_now(long k) {
   if (!effective.csv_path.empty()) effective.csv_path = std::filesystem::absolute(effective.csv_path).string();
   if (is_scene_file(effective.scene)) effective.scene = std::filesystem::absolute(effective.scene).string();
   save(out, effective);
+  save(out, run_.from_code, start_, fingerprint_);
   loop_.save(out);
   runner_->save(out);
   if (companion_) companion_->save(out);
   if (check_) check_->save(out);
   stability_->save(out);
   precision_->save(out);
+  out(static_cast<bool>(stops_));
+  if (stops_) stops_->save(out);
   write_checkpoint(config_.checkpoint_path, {run_.info.name, config_.method, runner_->t(), k, loop_.run_id},
                    out.bytes(), runner_->q(), runner_->p(), &checkpoint_lock_);
   last_checkpoint_ = Clock::now();
@@ -746,7 +784,7 @@ void RunLoop::judge() {
   summary.factorizations = runner_->factorizations();
   summary.threads_note = team_probe_->note();
   if (summary.restarts >= 0) summary.restarts = runner_->restarts();
-  if (setup_->model.has_rigid_bodies()) summary.legendre_iterations_max = runner_->legendre_iterations();
+  if (model_.has_rigid_bodies()) summary.legendre_iterations_max = runner_->legendre_iterations();
   if (forced_) summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();  // not an invariant
   if (summary.status == Status::Ok && summary.parasitic_max > kParasiticWarning)
     add_warning(summary, parasitic_warning(summary, choice.rattle));
@@ -770,6 +808,14 @@ void RunLoop::judge() {
                    reflection_);
   summary.ns_per_step = summary.steps > 0 ? 1e9 * loop_s_ / static_cast<double>(summary.steps) : 0.0;
   summary.ns_per_body_step = summary.ns_per_step / summary.bodies;
+  if (summary.status == Status::Ok && !summary.stopped_by.empty()) {
+    std::ostringstream os;
+    os.precision(17);
+    os << "stopped by " << summary.stopped_by << ", which first held at t = " << summary.t_stop << " (step "
+       << summary.steps << " at t = " << summary.t_final << " saw it; the output ends there)";
+    summary.status = Status::Stopped;
+    summary.message = os.str();
+  }
 }
 
 TrajectoryResult RunLoop::result() {
@@ -777,8 +823,8 @@ TrajectoryResult RunLoop::result() {
   if (hooks_.final_q) r.final_q = runner_->q();
   if (hooks_.final_state) {
     r.final_p = runner_->p();
-    r.coordinates = setup_->model.coordinate_names();
-    r.velocities = setup_->model.velocity_names();
+    r.coordinates = model_.coordinate_names();
+    r.velocities = model_.velocity_names();
   }
   // The file's wall_s: all of the run but the closing itself (it was 0: set by the caller, after).
   summary_.wall_s = std::chrono::duration<double>(Clock::now() - hooks_.started.value_or(run_start_)).count();
@@ -808,12 +854,29 @@ double RunLoop::relative_residual() {
 }
 
 double RunLoop::power_now() {
-  return external_power(setup_->model, runner_->t(), runner_->q(), runner_->velocity(), force_);
+  return external_power(model_, runner_->t(), runner_->q(), runner_->velocity(), force_);
 }
 
+TrajectoryResult integrate_model(const PreparedRun& run, const Model& model, const RunStart& start,
+                                 const Parameters& params, const RunConfig& config, const TrajectoryHooks& hooks,
+                                 const std::function<void()>& release_start) {
+  return RunLoop(run, model, start, params, config, hooks, release_start, Clock::now()).run();
+}
+
+// "setting up sleigh_chain (1000000 bodies): building model...": the body count from the
+// parameters until the model says.
 TrajectoryResult integrate_scene(const PreparedRun& run, const Parameters& params, const RunConfig& config,
                                  const TrajectoryHooks& hooks) {
-  return RunLoop(run, params, config, hooks).run();
+  const auto started = Clock::now();
+  long bodies = -1;
+  for (const auto& spec : params.specs())
+    if (spec.name == "bodies") bodies = std::lround(params["bodies"]);
+  report_setup(hooks, run.info.name, bodies, "building model");
+  SceneSetup setup = run.info.build(params);
+  RunStart start{setup.t0, std::move(setup.q0), std::move(setup.v0), {}};
+  // The methods have made their starts from q0 and v0: nothing reads them again.
+  auto release = [&start] { start = RunStart{}; };
+  return RunLoop(run, setup.model, start, params, config, hooks, release, started).run();
 }
 
 }  // namespace nonholo::scenarios

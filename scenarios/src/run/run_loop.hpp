@@ -1,7 +1,8 @@
 #pragma once
 // One trajectory of `nonholo run` (and of each row of `nonholo batch`) as named phases:
 //   set_up -> open_outputs -> describe_run -> start | resume -> loop of steps -> close -> judge
-// RunLoop holds what the phases share; integrate_scene (run_internal.hpp) runs them in order.
+// RunLoop holds what the phases share; integrate_model (run_internal.hpp) runs them in order, for
+// a scene's model (integrate_scene) as for one built in code (run_model).
 // The step itself is the method's (runners.hpp); the bounds each step is held to are
 // run_checks.hpp's, the verdicts at the end verdicts.hpp's.
 #include <nonholo/accuracy.hpp>
@@ -11,6 +12,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -22,6 +24,7 @@
 #include "run/run_checks.hpp"
 #include "run/run_internal.hpp"
 #include "run/stability_watch.hpp"
+#include "run/stop_watch.hpp"
 #include "run/team_probe.hpp"
 
 namespace nonholo::scenarios {
@@ -65,7 +68,10 @@ struct LoopState {
 
 class RunLoop {
  public:
-  RunLoop(const PreparedRun& run, const Parameters& params, const RunConfig& config, const TrajectoryHooks& hooks);
+  // `started`: when the trajectory began (a scene's: before its model was built).
+  RunLoop(const PreparedRun& run, const Model& model, const RunStart& start, const Parameters& params,
+          const RunConfig& config, const TrajectoryHooks& hooks, std::function<void()> release_start,
+          std::chrono::steady_clock::time_point started);
   // The phases in order; throws std::invalid_argument on a bad set-up (before any step).
   TrajectoryResult run();
 
@@ -73,7 +79,7 @@ class RunLoop {
   using Clock = std::chrono::steady_clock;
 
   // --- the phases, in the order run() calls them ---
-  void set_up();         // the model, the method (and the companion of --error-estimate)
+  void set_up();         // the methods (and the companions of the checks and --error-estimate)
   void read_loop_state();  // a resumed run: the loop's state from the checkpoint
   void open_outputs();   // CSV or HDF5, and the caller's sink
   void describe_run();   // the summary's fixed fields: scene, method, order, hitch, ...
@@ -93,6 +99,7 @@ class RunLoop {
   void interrupted(long k, bool during);  // status=interrupted, after step k - 1 or during step k
   bool watches_fail(long k);         // the stability and precision watches before step k
   bool advance(long k);              // the method's step; false (status set) when it failed
+  bool stop_condition_holds(long k);  // a stop condition held after step k (0: at the start)
   Diagnostics measure(long k);       // the step's diagnostics, held to the energy, residual and gap bounds
   void companion_step(long k, bool output);
   void check_step(long k);
@@ -109,17 +116,21 @@ class RunLoop {
   double power_now();          // F(t, q)^T v
 
   const PreparedRun& run_;
+  const Model& model_;
+  const RunStart& start_;              // read by set_up only ...
+  std::function<void()> release_start_;  // ... which then calls this (integrate_model)
   const Parameters& params_;
   const RunConfig& config_;
   const TrajectoryHooks& hooks_;
   const bool reflection_;
 
-  std::optional<SceneSetup> setup_;  // the model and its start (set_up)
+  std::string fingerprint_;  // the model's (model_fingerprint): in checkpoints, compared on resume
   std::unique_ptr<Runner> runner_, companion_;
   std::unique_ptr<Runner> check_;  // the accuracy check's companion (RunConfig::accuracy_check)
   bool check_companion_ = false;   // chosen for this run (check_ may since have failed)
   std::unique_ptr<StabilityWatch> stability_;
   std::unique_ptr<PrecisionWatch> precision_;
+  std::unique_ptr<StopWatch> stops_;  // the run's stop conditions (none: null)
   std::unique_ptr<InArchive> archive_;  // a resumed run's checkpoint, read in phases
   LoopState loop_;
   RunSummary summary_;

@@ -1,5 +1,5 @@
 // The runners behind `nonholo run --method` (runners.hpp): reflection (plain, composed or adaptive), DLA, the
-// implicit form, RK4 and ARKODE, each from the scene's consistent start; make_runner picks one by name.
+// implicit form, RK4 and ARKODE, each from the consistent start (of a scene or a model built in code); make_runner picks one by name.
 #include "run/runners.hpp"
 
 #include "run/run_checks.hpp"
@@ -42,13 +42,22 @@ WorkspaceOptions reflection_workspace(const MethodChoice& c) {
   return o;
 }
 
+// The state a method starts from: the caller's (its restarts counted afresh: the summary's are
+// this run's), or the consistent start from q0 and the velocity guess v0.
+State consistent_start(const Model& model, Workspace& ws, const RunStart& start) {
+  if (!start.state) return start_from_velocity(model, ws, start.t0, start.q0, start.v0);
+  State s = *start.state;
+  s.restarts = 0;
+  return s;
+}
+
 class ReflectionRunner final : public Runner {
  public:
-  ReflectionRunner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase)
-      : model_(setup.model), ws_(setup.model, reflection_workspace(c)), options_(c.rattle) {
+  ReflectionRunner(const Model& model, const RunStart& start, const MethodChoice& c, const SetupPhase& phase)
+      : model_(model), ws_(model, reflection_workspace(c)), options_(c.rattle) {
     announce(phase, "starting");
-    state_ = start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0);
-    if (c.adaptive_on()) stepper_ = std::make_unique<AdaptiveStepper>(setup.model, c.rattle, c.adaptive);
+    state_ = consistent_start(model, ws_, start);
+    if (c.adaptive_on()) stepper_ = std::make_unique<AdaptiveStepper>(model, c.rattle, c.adaptive);
     if (c.accuracy_every > 0) {  // its shadow made now: set-up, not the first step, pays for it
       watch_ = std::make_unique<AccuracyWatch>(ws_, c.rattle, c.accuracy_every);
       watch_->prepare();
@@ -147,13 +156,13 @@ class ReflectionRunner final : public Runner {
 
 class DlaRunner final : public Runner {
  public:
-  DlaRunner(const SceneSetup& setup, const MethodChoice& c, DlaConstraint constraint, const SetupPhase& phase)
-      : model_(setup.model), ws_(setup.model, {c.backend, false}) {
+  DlaRunner(const Model& model, const RunStart& start, const MethodChoice& c, DlaConstraint constraint, const SetupPhase& phase)
+      : model_(model), ws_(model, {c.backend, false}) {
     options_.h = c.rattle.h;
     options_.constraint = constraint;
     validate(options_);
     announce(phase, "starting");
-    state_ = dla_start(start_from_velocity(setup.model, ws_, setup.t0, setup.q0, setup.v0), options_.h);
+    state_ = dla_start(consistent_start(model, ws_, start), options_.h);
   }
   Status advance(double) override { return dla_step(model_, ws_, state_, options_); }
   double t() const override { return state_.t; }
@@ -219,13 +228,16 @@ class DlaRunner final : public Runner {
 // The general implicit form, for models with a configuration-dependent metric.
 class ImplicitRunner final : public Runner {
  public:
-  ImplicitRunner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase)
-      : model_(setup.model), ws_(setup.model) {
+  ImplicitRunner(const Model& model, const RunStart& start, const MethodChoice& c, const SetupPhase& phase)
+      : model_(model), ws_(model) {
     options_.h = c.rattle.h;
     options_.min_pivot_ratio = c.rattle.min_pivot_ratio;
     options_.restart = c.rattle.restart;
     announce(phase, "starting");
-    state_ = implicit_start(model_, ws_, setup.t0, setup.q0, setup.v0, options_);
+    if (start.state)
+      throw std::invalid_argument("a start from a State: this model's metric depends on q (the implicit general form "
+                                  "has a state of its own); start it from q0 and v0");
+    state_ = implicit_start(model_, ws_, start.t0, start.q0, start.v0, options_);
     average_.setZero(model_.num_coordinates());
     reflected_.setZero(model_.num_coordinates());
   }
@@ -298,12 +310,12 @@ class ImplicitRunner final : public Runner {
 };
 
 // The velocity of the consistent start, M^-1 p~_0, in D(q0).
-Vector started_velocity(const SceneSetup& setup, sparse::Backend backend, const SetupPhase& phase) {
-  Workspace ws(setup.model, {backend, false});
+Vector started_velocity(const Model& model, const RunStart& start, sparse::Backend backend, const SetupPhase& phase) {
+  Workspace ws(model, {backend, false});
   announce(phase, "starting");
-  const State s = start_from_velocity(setup.model, ws, setup.t0, setup.q0, setup.v0);
+  const State s = consistent_start(model, ws, start);
   Vector v(s.p.size());
-  setup.model.inverse_mass().multiply(s.p.data(), v.data());
+  model.inverse_mass().multiply(s.p.data(), v.data());
   return v;
 }
 
@@ -315,17 +327,17 @@ reference::Options with_backend(const MethodChoice& c) {
 
 class ReferenceRunner final : public Runner {
  public:
-  ReferenceRunner(const SceneSetup& setup, reference::Method method, const MethodChoice& c, const SetupPhase& phase)
-      : model_(setup.model),
+  ReferenceRunner(const Model& model, const RunStart& start, reference::Method method, const MethodChoice& c, const SetupPhase& phase)
+      : model_(model),
         method_(method),
-        integrator_(setup.model, method, with_backend(c), setup.t0, setup.q0,
-                    started_velocity(setup, c.backend, phase)),
-        p_(setup.model.num_coordinates()) {
+        integrator_(model, method, with_backend(c), start.state ? start.state->t : start.t0,
+                    start.state ? start.state->q : start.q0, started_velocity(model, start, c.backend, phase)),
+        p_(model.num_coordinates()) {
     // RK4 (fixed steps of --dt, one per output interval): the accuracy check's shadow is one
     // RK4 step of 2 dt from the same state. ARKODE controls its own local error: no check.
     if (method == reference::Method::Rk4 && c.accuracy_every > 0) {
-      estimate_ = std::make_unique<DoublingEstimate>(setup.model.num_configuration(), 4, c.accuracy_every);
-      shadow_.setZero(setup.model.num_configuration() + setup.model.num_velocities());
+      estimate_ = std::make_unique<DoublingEstimate>(model.num_configuration(), 4, c.accuracy_every);
+      shadow_.setZero(model.num_configuration() + model.num_velocities());
     }
   }
   Status advance(double t_next) override {
@@ -450,27 +462,27 @@ Companion check_companion_of(const MethodChoice& c) {
   return out;
 }
 
-std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& c, const SetupPhase& phase) {
+std::unique_ptr<Runner> make_runner(const Model& model, const RunStart& start, const MethodChoice& c, const SetupPhase& phase) {
   if (c.rattle.order != 2 && c.method != "reflection")
     throw std::invalid_argument("--order " + std::to_string(c.rattle.order) +
                                 " applies to the reflection method only (method " + c.method + ")");
-  if (c.rattle.order != 2 && setup.model.has_configuration_metric())
+  if (c.rattle.order != 2 && model.has_configuration_metric())
     throw std::invalid_argument("--order " + std::to_string(c.rattle.order) +
-                                " composes the explicit step, which needs a constant metric; this scene's "
+                                " composes the explicit step, which needs a constant metric; this model's "
                                 "depends on q (the implicit general form is of order 2)");
-  if (c.adaptive_on() && setup.model.has_configuration_metric())
+  if (c.adaptive_on() && model.has_configuration_metric())
     throw std::invalid_argument("--tol: adaptive steps take the explicit step, which needs a constant metric; this "
-                                "scene's depends on q (the implicit general form takes fixed steps)");
+                                "model's depends on q (the implicit general form takes fixed steps)");
   announce(phase, "analysing C");
-  if (setup.model.has_configuration_metric()) {
-    if (c.method == "reflection") return std::make_unique<ImplicitRunner>(setup, c, phase);
+  if (model.has_configuration_metric()) {
+    if (c.method == "reflection") return std::make_unique<ImplicitRunner>(model, start, c, phase);
     throw std::invalid_argument("method " + c.method +
-                                " needs a constant metric; this scene's depends on q (use reflection, "
+                                " needs a constant metric; this model's depends on q (use reflection, "
                                 "the implicit general form)");
   }
-  if (c.method == "reflection") return std::make_unique<ReflectionRunner>(setup, c, phase);
-  if (c.method == "dla-midpoint") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Midpoint, phase);
-  if (c.method == "dla-left") return std::make_unique<DlaRunner>(setup, c, DlaConstraint::Left, phase);
+  if (c.method == "reflection") return std::make_unique<ReflectionRunner>(model, start, c, phase);
+  if (c.method == "dla-midpoint") return std::make_unique<DlaRunner>(model, start, c, DlaConstraint::Midpoint, phase);
+  if (c.method == "dla-left") return std::make_unique<DlaRunner>(model, start, c, DlaConstraint::Left, phase);
   reference::Method method;
   try {
     method = reference::method_from_string(c.method);
@@ -479,7 +491,7 @@ std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice&
                                 "' (valid: reflection, dla-midpoint, dla-left, rk4, arkode-dp5, arkode-verner, "
                                 "arkode-fehlberg8)");
   }
-  return std::make_unique<ReferenceRunner>(setup, method, c, phase);
+  return std::make_unique<ReferenceRunner>(model, start, method, c, phase);
 }
 
 }  // namespace nonholo::scenarios

@@ -7,6 +7,7 @@
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/reference/integrators.hpp>
+#include <nonholo/scenarios/run_types.hpp>
 #include <nonholo/scenarios/scene.hpp>
 
 #include <functional>
@@ -130,10 +131,11 @@ Companion check_companion_of(const MethodChoice& choice);
 // status line (progress.hpp). May be empty.
 using SetupPhase = std::function<void(const char* phase)>;
 
-// Starts the method from the scene's consistent initial state (start_from_velocity).
+// Starts the method on `model` (kept by reference) from `start`: the consistent initial state
+// start_from_velocity makes of q0 and v0, or the state given.
 // Throws std::invalid_argument for an unknown method, or order 4 or 6 with another method
 // than the explicit reflection step.
-std::unique_ptr<Runner> make_runner(const SceneSetup& setup, const MethodChoice& choice,
+std::unique_ptr<Runner> make_runner(const Model& model, const RunStart& start, const MethodChoice& choice,
                                     const SetupPhase& phase = {});
 
 }  // namespace nonholo::scenarios

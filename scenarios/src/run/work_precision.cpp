@@ -49,7 +49,7 @@ struct Trajectory {
 // sampling every sample_dt.
 Trajectory integrate(const SceneSetup& setup, const MethodChoice& choice, double t_end, double sample_dt) {
   Trajectory out;
-  auto runner = make_runner(setup, choice);
+  auto runner = make_runner(setup.model, RunStart{setup.t0, setup.q0, setup.v0, {}}, choice);
   const bool own_steps = choice.method.rfind("arkode", 0) == 0 || choice.adaptive_on();
   const double dt = own_steps ? sample_dt : choice.rattle.h;
   const long steps = std::lround(t_end / dt), every = std::max(1L, std::lround(sample_dt / dt));

@@ -7,10 +7,13 @@
 #include <nonholo/diagnostics.hpp>
 #include <nonholo/rattle.hpp>
 #include <nonholo/sparse/factorization.hpp>
+#include <nonholo/state.hpp>
 #include <nonholo/status.hpp>
 
 #include <atomic>
+#include <functional>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,14 +51,52 @@ inline constexpr int kHolonomicBodiesPerThread = 5000;
 /// half the run's time again are what scaling runs cannot spare, and the sampled check runs.
 inline constexpr long kCompanionMaxVelocities = 300000;
 
-/// The options of `nonholo run` (run_scene()).
+/// A condition that ends a run where it first holds (RunConfig::stop_conditions; the built-in
+/// ones as text in RunConfig::stop_when): checked after every `every`-th step and the last, and
+/// where it holds, the first time it held between the last two checks is found by bisection on
+/// the interpolant (cubic Hermite in q and the velocity; linear for a model with 3-D rigid
+/// bodies, whose q holds quaternions). The run then ends with status=stopped; the summary's
+/// stopped_by and t_stop say which condition and when; the output holds every frame up to the
+/// step where it was seen (that one written whatever RunConfig::every). A condition that holds at
+/// the start ends the run before its first step.
+struct StopCondition {
+  std::string name;  ///< how the summary names it (one word: whitespace becomes '_')
+  /// Whether the run should stop at (t, q). Called on the run's thread, also at interpolated
+  /// states; an exception ends the run with status=callback-failed naming the condition.
+  std::function<bool(double t, ConstVecRef q)> holds;
+  long every = 1;  ///< checked every so many steps (and after the last), at least 1
+};
+
+/// Where a model built in code starts (run_model(), <nonholo/scenarios/run.hpp>): at t0 from q0
+/// with the velocity guess v0, projected onto the constraints as start_from_velocity does (the
+/// scenes' start), or from a State already consistent (one that start_from_velocity or step()
+/// made), which the reflection method continues as it is.
+struct RunStart {
+  double t0 = 0.0;  ///< the start time (the run ends at RunConfig::t_end, a time, not a duration)
+  Vector q0;        ///< n_q entries
+  Vector v0;        ///< n_v entries: the velocity guess
+  /// Instead of t0, q0 and v0: this state (its t, q, p~ and lambda~). The other methods start
+  /// from its q and M^-1 p~.
+  std::optional<State> state;
+};
+
+/// The options of `nonholo run` (run_scene()) and of a run of a model built in code (run_model()).
 struct RunConfig {
-  std::string scene;  ///< a built-in scene's name, or a scene file (.json)
+  /// A built-in scene's name, or a scene file (.json). run_model(): the model's name in the
+  /// summary and the output files (empty: "model").
+  std::string scene;
   std::vector<std::string> assignments;  ///< NAME=VALUE, applied in order
-  double dt = 0.0;                       ///< 0: the scene's default
-  double t_end = -1.0;                   ///< < 0: the scene's default
+  double dt = 0.0;                       ///< 0: the scene's default (run_model(): required)
+  double t_end = -1.0;                   ///< < 0: the scene's default (run_model(): required)
   std::string csv_path;                  ///< empty: no CSV
   FrameSink* sink = nullptr;             ///< also gets the frames (run_scene only, not batch)
+  /// Stop conditions without code (`--stop-when`, saved in checkpoints), each checked after every
+  /// step: "NAME>VALUE" or "NAME<VALUE" for a coordinate (`x0>10`), "hitch-angle>VALUE" (the
+  /// largest |theta_i - theta_{i+1}| of consecutive planar bodies, radians: a jack-knife),
+  /// "gap>VALUE" (the largest |g(q)| of the holonomic constraints).
+  std::vector<std::string> stop_when;
+  /// Stop conditions in code (not saved in checkpoints: a resumed run is given them again).
+  std::vector<StopCondition> stop_conditions;
   /// Read between steps, set from any thread (not owned): true ends the run with status=interrupted,
   /// as Ctrl-C does; a batch then starts no more trajectories (Python's batch, on Ctrl-C).
   const std::atomic<bool>* stop = nullptr;
@@ -138,6 +179,13 @@ struct RunSummary {
   int threads = 0;  ///< threads one step used (`nonholo run`; 0: not reported, as in a batch's aggregate)
   Status status = Status::Ok;  ///< how the run ended
   std::string message;  ///< why the run stopped early
+  /// A run ended by a stop condition (status=stopped, or a verdict found after it): the
+  /// condition's name, and the first time it held, found on the interpolant between its last two
+  /// checks (NaN: none held).
+  ///@{
+  std::string stopped_by;
+  double t_stop = std::numeric_limits<double>::quiet_NaN();
+  ///@}
   long steps = 0;  ///< steps taken (adaptive steps and ARKODE: output intervals)
   double dt = 0.0;  ///< the step, or the output interval
   double t_final = 0.0;  ///< the time reached (the line's t_end)

@@ -14,9 +14,10 @@
 namespace nonholo::scenarios {
 
 // Bumped whenever the bytes change meaning: a checkpoint of another format version is refused.
-constexpr long kCheckpointFormat = 6;  // 2: RunConfig::threads; 3: RunSummary::setup_s; 4: the accuracy check's
+constexpr long kCheckpointFormat = 7;  // 2: RunConfig::threads; 3: RunSummary::setup_s; 4: the accuracy check's
                                        // retries; 5: the run id and the output's identity; 6: the
-                                       // accuracy check's companion
+                                       // accuracy check's companion; 7: the run's source (a model
+                                       // built in code, its start time, the model's fingerprint)
 
 struct CheckpointInfo {
   std::string scene, method;

@@ -35,6 +35,10 @@ void fields(Archive& a, Config& c, Text& scene_text) {
   a(c.restart), a(c.restart_tol), a(c.monitor_every), a(c.method), a(c.order), a(c.composition), a(c.rotation);
   a(c.error_estimate), a(c.accuracy), a(c.accuracy_check), a(c.project), a(c.tol), a(c.adaptive), a(c.horizon);
   a(c.threads);
+  long conditions = static_cast<long>(c.stop_when.size());
+  a(conditions);
+  c.stop_when.resize(static_cast<std::size_t>(conditions));
+  for (auto& s : c.stop_when) a(s);
 }
 
 }  // namespace
@@ -51,6 +55,27 @@ void load(InArchive& a, RunConfig& config) {
   if (is_scene_file(config.scene) && file_text(config.scene) != text)
     throw std::runtime_error("the scene file " + config.scene +
                              " has changed (or gone) since the checkpoint was written: restore it to resume");
+}
+
+void save(OutArchive& a, bool from_code, const RunStart& start, const std::string& fingerprint) {
+  a.tag("source");
+  a(from_code), a(fingerprint);
+  if (!from_code) return;
+  a(start.t0), a(start.q0), a(start.v0), a(start.state.has_value());
+  if (start.state) save(a, *start.state);
+}
+
+void load(InArchive& a, RunSource& source) {
+  a.tag("source");
+  a(source.from_code), a(source.fingerprint);
+  source.start = RunStart{};
+  if (!source.from_code) return;
+  bool has_state = false;
+  a(source.start.t0);
+  a.resize_into(source.start.q0);
+  a.resize_into(source.start.v0);
+  a(has_state);
+  if (has_state) load(a, source.start.state.emplace());
 }
 
 }  // namespace nonholo::scenarios
