@@ -113,6 +113,7 @@ setup(
     version=version(),
     package_dir={"": "python"},
     packages=["nonholo"],
+    entry_points={"console_scripts": ["nonholo = nonholo.__main__:main"]},  # the tool, for pip install users
     package_data={"nonholo": ["py.typed", "viewer/viewer.html"]},  # _core's module and stub come from build_ext
     ext_modules=[Extension("nonholo._core", sources=[])],
     cmdclass={"build_ext": CMakeBuild, "sdist": SourceWithRevision},

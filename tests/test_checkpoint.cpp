@@ -342,8 +342,8 @@ TEST(Checkpoint, RefusesWhatItCannotResume) {
                  "--checkpoint-every '1.5': expected a whole number of steps (100) or of seconds with an s (60s)");
   ASSERT_EQ(testing::run_cli({"run", "sleigh", "--t-end", "0.1", "--checkpoint", checkpoint}).code, 0);
   expect_failure({"run", "--resume", checkpoint, "--order", "4"},
-                 "--order with --resume: the run's options come from the checkpoint (only --t-end, --checkpoint and "
-                 "--checkpoint-every may be given)");
+                 "--order with --resume: the run's options come from the checkpoint (only --t-end, --checkpoint, "
+                 "--checkpoint-every, --quiet and --verbose may be given)");
   expect_failure({"run", "sleigh", "--resume", checkpoint}, "a scene with --resume");
   expect_failure({"run"}, "scene is required");
   // A run that failed: nothing to continue.

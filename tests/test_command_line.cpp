@@ -10,6 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -598,6 +599,37 @@ TEST(CommandLine, RefusesSizesTheMachineCannotHold) {
   const Result dt = run({"run", "sleigh", "--dt", "1e-300"});
   EXPECT_EQ(dt.code, 1);
   EXPECT_THAT(dt.err, HasSubstr("t_end 10 / dt 1e-300 = 1e+301 steps"));
+}
+
+}  // namespace
+}  // namespace nonholo
+
+namespace nonholo {
+namespace {
+
+// The stiff train at dt 0.15 ends ok with three warnings, one of each kind (stability, accuracy,
+// method): one line of them by default, none with --quiet, one line each with its kind with
+// --verbose; the summary line lists the kinds in every case.
+TEST(CommandLine, QuietAndVerboseSayLessAndMore) {
+  const std::vector<std::string> args{"run", "wheeled_train", "--set", "bodies=5", "--set", "k=50",
+                                      "--dt", "0.15", "--t-end", "6"};
+  auto with = [&args](const std::string& flag) {
+    std::vector<std::string> a = args;
+    if (!flag.empty()) a.push_back(flag);
+    return run(a);
+  };
+  const Result normal = with(""), quiet = with("--quiet"), verbose = with("--verbose");
+  for (const Result* r : {&normal, &quiet, &verbose}) {
+    EXPECT_EQ(r->code, 0) << r->err;
+    EXPECT_EQ(parse_summary(r->out).at("warnings"), "stability,accuracy,method") << r->out;
+  }
+  EXPECT_EQ(quiet.err, "");
+  EXPECT_THAT(normal.err, StartsWith("nonholo run: warning: dt = 0.15 is 0.638"));
+  EXPECT_EQ(std::count(normal.err.begin(), normal.err.end(), '\n'), 1) << normal.err;
+  EXPECT_THAT(verbose.err, HasSubstr("nonholo run: warning (stability): dt = 0.15"));
+  EXPECT_THAT(verbose.err, HasSubstr("\nnonholo run: warning (accuracy): the accuracy check's step of 2 dt failed"));
+  EXPECT_THAT(verbose.err, HasSubstr("\nnonholo run: warning (method): the period-2 mode reached"));
+  EXPECT_THAT(run({"run", "sleigh", "--quiet", "--verbose"}).err, HasSubstr("--quiet and --verbose: give one of them"));
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // bit for bit (one run loop: integrate_scene builds the model and calls the same one); a start
 // from a State is the start from its velocity; a later start time ends at t_end; checkpoints of a
 // model resume bit for bit and only with the same model; and the refusals.
+#include <nonholo/scenarios/batch.hpp>
 #include <nonholo/scenarios/command_line.hpp>
 #include <nonholo/scenarios/run.hpp>
 #include <nonholo/start.hpp>
@@ -19,6 +20,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -275,6 +277,65 @@ TEST(RunModel, RefusesWhatItCannotRun) {
   expect_error([&] { run_model(model, bad_state, ok); }, "the start's state has 0 configuration entries");
   expect_error([&] { run_model(model, start_of(setup), with([](RunConfig& c) { c.method = "euler"; })); },
                "unknown method 'euler'");
+}
+
+}  // namespace
+}  // namespace nonholo::scenarios
+
+namespace nonholo::scenarios {
+namespace {
+
+// A batch of a model built in code: each trajectory from the factory, called with its draws.
+BatchConfig chain_batch(int threads) {
+  BatchConfig config;
+  config.run.scene = "chains";
+  config.run.dt = 0.01;
+  config.run.t_end = 2.0;
+  config.count = 6;
+  config.threads = threads;
+  config.vary = {"turn=0.2:2"};
+  config.seed = 5;
+  config.keep_states = true;
+  config.factory = [](const std::vector<double>& values, long) {
+    std::ostringstream turn;
+    turn.precision(17);
+    turn << "omega0=" << values[0];
+    SceneSetup s = build("sleigh_chain", {"bodies=3", turn.str()});
+    return BatchModel{std::make_shared<const Model>(std::move(s.model)), RunStart{s.t0, s.q0, s.v0, {}}};
+  };
+  return config;
+}
+
+// The same trajectories as run one by one (run_model), bit for bit, on 1 and 2 threads.
+TEST(RunModel, ABatchOfAFactoryIsItsTrajectoriesRunOneByOne) {
+  const BatchResult one = run_batch(chain_batch(1)), two = run_batch(chain_batch(2));
+  ASSERT_EQ(one.failed, 0) << one.first_failure;
+  EXPECT_EQ(one.varied, std::vector<std::string>{"turn"});
+  expect_same_values(one.states.q, two.states.q, "1 and 2 threads");
+  expect_same_values(one.states.p, two.states.p, "1 and 2 threads");
+  const BatchConfig config = chain_batch(1);
+  for (long i = 0; i < config.count; ++i) {
+    const std::vector<double> values = batch_draws(config, i);
+    EXPECT_EQ(values, one.rows[static_cast<std::size_t>(i)].values);
+    const BatchModel made = config.factory(values, i);
+    RunConfig single = config.run;
+    single.threads = 1;
+    Frames frames;
+    single.sink = &frames;
+    const RunSummary s = run_model(*made.model, made.start, single);
+    const std::size_t nq = one.states.coordinates.size(), nv = one.states.velocities.size();
+    const std::vector<double> last(frames.values.end() - static_cast<std::ptrdiff_t>(nq + nv), frames.values.end());
+    const std::vector<double> q(one.states.q.begin() + static_cast<std::ptrdiff_t>(i * nq),
+                                one.states.q.begin() + static_cast<std::ptrdiff_t>((i + 1) * nq));
+    expect_same_values(std::vector<double>(last.begin(), last.begin() + static_cast<std::ptrdiff_t>(nq)), q,
+                       "trajectory " + std::to_string(i));
+    EXPECT_EQ(std::memcmp(&s.error_estimate, &one.rows[static_cast<std::size_t>(i)].summary.error_estimate,
+                          sizeof(double)),
+              0);
+  }
+  BatchConfig bad = chain_batch(1);
+  bad.run.dt = 0.0;
+  expect_error([&] { run_batch(bad); }, "--dt 0.000000: give the step");
 }
 
 }  // namespace

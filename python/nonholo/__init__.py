@@ -20,6 +20,7 @@ import os as _os
 import re as _re
 import stat as _stat
 import typing as _typing
+import warnings as _warnings
 
 import numpy as _np
 
@@ -83,7 +84,38 @@ __version__ = _core.__version__  # CMakeLists.txt's project(VERSION); _core.__gi
 __target_arch__ = _core.__target_arch__
 
 __all__ = [name for name in dir(_core) if not name.startswith("_")] + [
-    "run", "batch", "scenes", "load", "animate", "view", "RunResult", "BatchResult", "RunError"]
+    "run", "batch", "scenes", "load", "animate", "view", "RunResult", "BatchResult", "RunError", "RunWarning",
+    "AccuracyWarning", "StabilityWarning", "PrecisionWarning", "MethodWarning", "PerformanceWarning"]
+
+
+class RunWarning(UserWarning):
+    """A warning of a run or batch that ended (summary["warning_list"]), raised through the
+    warnings module by run() and batch() as one of its kinds below: filter them by category
+    (warnings.simplefilter("ignore", nonholo.PerformanceWarning), or "error" to make them raise)."""
+
+
+class AccuracyWarning(RunWarning):
+    """The accuracy check could not judge as it should (its companion or its samples failed)."""
+
+
+class StabilityWarning(RunWarning):
+    """dt within a factor 2 of the explicit step's stability limit."""
+
+
+class PrecisionWarning(RunWarning):
+    """Coordinates large enough to lose digits of a step's displacement."""
+
+
+class MethodWarning(RunWarning):
+    """The method's own behaviour: a grown period-2 mode."""
+
+
+class PerformanceWarning(RunWarning):
+    """The run could go faster: threads that do not help, steps capped by the output interval."""
+
+
+_WARNINGS = {"accuracy": AccuracyWarning, "stability": StabilityWarning, "precision": PrecisionWarning,
+             "method": MethodWarning, "performance": PerformanceWarning}
 
 
 class RunError(RuntimeError):
@@ -296,12 +328,16 @@ def _call_tool(core, keywords, *args):
     for key in ("message", "warning", "first_failure"):
         if isinstance(summary.get(key), str):
             summary[key] = _keywords_in(summary[key], keywords)
+    for w in summary.get("warning_list", []):
+        w["text"] = _keywords_in(w["text"], keywords)
     if "messages" in d:
         d["messages"] = [_keywords_in(m, keywords) for m in d["messages"]]
     return d
 
 
 def _finish(result, d, check, what):
+    for w in d["summary"].get("warning_list", []):
+        _warnings.warn(w["text"], _WARNINGS.get(w["kind"], RunWarning), stacklevel=3)
     interrupt = d.get("interrupt")
     if interrupt is not None:  # Ctrl-C during the run or batch: raised, with the results so far
         interrupt.result = result
@@ -345,7 +381,8 @@ def run(scene: Union[_Path, "Model", None] = None, *, dt: Optional[_Real] = None
         resume: Optional[_Path] = None, threads: Optional[_Integer] = None,
         q0: Optional[_Vector] = None, v0: Optional[_Vector] = None, t0: Optional[_Real] = None,
         state: Optional["State"] = None, name: Optional[str] = None, stop: Optional[_Stops] = None,
-        stop_every: Optional[_Integer] = None) -> RunResult:
+        stop_every: Optional[_Integer] = None,
+        progress: Optional[Callable[[float, float], Any]] = None) -> RunResult:
     """Integrates one scene (a built-in name or a scene file) as `nonholo run` does, or a Model
     built in code, and returns a RunResult with its frames and summary.
 
@@ -387,7 +424,17 @@ def run(scene: Union[_Path, "Model", None] = None, *, dt: Optional[_Real] = None
     (t_end=-1 where the tool says --t-end -1); a failed step ends the run early with
     summary["status"] saying why (check=True raises RunError instead). Ctrl-C
     raises KeyboardInterrupt with the frames so far in its .result.
+
+    progress(t, fraction) is called every 20-100 ms of the run, on the calling thread, and once at
+    its end, with the time reached and the fraction of the steps done (tqdm:
+    bar = tqdm(total=1.0); progress=lambda t, f: bar.update(f - bar.n)); an exception it raises
+    stops the run and is raised with the frames so far in its .result. The run's warnings are
+    raised through the warnings module, one category per kind (AccuracyWarning, StabilityWarning,
+    PrecisionWarning, MethodWarning, PerformanceWarning, all RunWarning); summary["warning_list"]
+    has them as dicts of kind and text.
     """
+    if progress is not None and not callable(progress):
+        raise ValueError("progress: expected a callable progress(t, fraction), got %r" % (progress,))
     model = scene if isinstance(scene, _core.Model) else None
     stop_texts, stop_calls = _stop_conditions(stop, stop_every)
     starts = [key for key, value in (("q0", q0), ("v0", v0), ("t0", t0), ("state", state), ("name", name))
@@ -434,14 +481,15 @@ def run(scene: Union[_Path, "Model", None] = None, *, dt: Optional[_Real] = None
     _option(args, "checkpoint_every", "--checkpoint-every", checkpoint_every,
             lambda k, v: _text(k, v) if isinstance(v, str) else _integer(k, v))
     if model is None:
-        d = _call_tool(_core._run, _keywords(run), args, stop_calls)
+        d = _call_tool(_core._run, _keywords(run), args, stop_calls, progress)
     else:
         start_time = 0.0 if t0 is None else float(_number("t0", t0))
-        d = _call_tool(_core._run_model, _keywords(run), model, args, start_time, q0, v0, state, stop_calls)
+        d = _call_tool(_core._run_model, _keywords(run), model, args, start_time, q0, v0, state, stop_calls, progress)
     return _finish(RunResult(d), d, check, "run")
 
 
-def batch(scene: _Path, *, count: _Integer, threads: Optional[_Integer] = None, vary: Optional[_Ranges] = None,
+def batch(scene: Union[_Path, Callable[[Dict[str, float]], Any]], *, count: _Integer, threads: Optional[_Integer] = None,
+          vary: Optional[_Ranges] = None,
           seed: Optional[_Integer] = None, out: Optional[_Path] = None, dt: Optional[_Real] = None,
           t_end: Optional[_Real] = None, set: Optional[_Assignments] = None, method: Optional[str] = None,
           order: Optional[_Integer] = None, hitch: Optional[str] = None, backend: Optional[str] = None,
@@ -449,7 +497,7 @@ def batch(scene: _Path, *, count: _Integer, threads: Optional[_Integer] = None, 
           monitor_every: Optional[_Integer] = None, composition: Optional[str] = None, error_estimate: bool = False,
           project: bool = False, tol: Optional[_Real] = None, rotation: Optional[str] = None,
           accuracy: Optional[_Real] = None, accuracy_check: Optional[str] = None, check: bool = False,
-          states: Union[bool, _Path, None] = None) -> BatchResult:
+          states: Union[bool, _Path, None] = None, name: Optional[str] = None) -> BatchResult:
     """Many trajectories of one scene in parallel, as `nonholo batch` does: count
     trajectories, vary (a dict {NAME: (lo, hi)} or "NAME=LO:HI" strings) drawn per trajectory
     from seed, threads (default: all cores), out (the CLI's CSV, or HDF5 for .h5) and run()'s
@@ -457,8 +505,22 @@ def batch(scene: _Path, *, count: _Integer, threads: Optional[_Integer] = None, 
     and messages (check=True raises RunError if any failed). Ctrl-C stops every trajectory at
     its next step and raises KeyboardInterrupt with the BatchResult in its .result: the finished
     rows as usual, the others with status "interrupted". states=True keeps every trajectory's
-    whole final state in the result's q and p; states=path (.h5) also writes them there."""
-    args = _run_arguments("batch", scene, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
+    whole final state in the result's q and p; states=path (.h5) also writes them there.
+
+    scene may instead be a factory of models built in code: factory(params), params a dict of
+    trajectory i's draws of vary (its names are the factory's own), returns (model, q0, v0),
+    (model, q0, v0, t0) or (model, state). It is called for every trajectory on the calling
+    thread before the batch starts (the models are kept until it ends), so no Python runs in the
+    parallel part unless the models call it; dt and t_end are required, set does not apply, name
+    names the model (default "model"). The rows, states and files are those of a scene's batch.
+    """
+    factory = None if isinstance(scene, (str, bytes, _os.PathLike)) or not callable(scene) else scene
+    if factory is not None and set is not None:
+        raise ValueError("set: the parameters of a scene; a factory's vary its own")
+    label = ("model" if name is None else name) if factory is not None else scene
+    if factory is None and name is not None:
+        raise ValueError("name: it names a factory's model; a scene is named by itself")
+    args = _run_arguments("batch", label, dt, t_end, set, method, order, hitch, backend, restart, restart_tol,
                           monitor_every, composition, error_estimate, project, tol, rotation, accuracy,
                           accuracy_check)
     args.extend(["--count", _integer("count", count)])
@@ -471,8 +533,34 @@ def batch(scene: _Path, *, count: _Integer, threads: Optional[_Integer] = None, 
     _option(args, "out", "--out", out, _text)
     if states is not None and states is not True and states is not False:
         _option(args, "states", "--states", states, _text)
-    d = _call_tool(_core._batch, _keywords(batch), args, bool(states))
+    if factory is None:
+        d = _call_tool(_core._batch, _keywords(batch), args, bool(states))
+    else:
+        names = [a.split("=", 1)[0] for a in varies]
+        d = _call_tool(_core._batch_models, _keywords(batch), args, bool(states), _made(factory, args, count, names))
     return _finish(BatchResult(d), d, check, "batch")
+
+
+def _made(factory, args, count, names):
+    """Every trajectory's (model, t0, q0, v0, state) from the factory, called with its draws."""
+    try:
+        draws = _core._batch_draws(args, int(_integer("count", count)))
+    except ValueError as e:
+        raise ValueError(_keywords_in(str(e), _keywords(batch))) from None
+    made = []
+    for i, values in enumerate(draws):
+        out = factory(dict(zip(names, (float(x) for x in values))))
+        if not isinstance(out, tuple) or not out or not isinstance(out[0], _core.Model) or len(out) not in (2, 3, 4) \
+                or (len(out) == 2 and not isinstance(out[1], _core.State)):
+            raise ValueError("factory: trajectory %d: expected (model, q0, v0), (model, q0, v0, t0) or (model, state), "
+                             "got %r" % (i, type(out).__name__ if not isinstance(out, tuple) else
+                                         tuple(type(x).__name__ for x in out)))
+        if len(out) == 2:
+            made.append((out[0], out[1].t, None, None, out[1]))
+        else:
+            t0 = 0.0 if len(out) == 3 else float(_number("factory t0", out[3]))
+            made.append((out[0], t0, out[1], out[2], None))
+    return made
 
 
 def scenes() -> List[Dict[str, Any]]:
@@ -532,6 +620,9 @@ def _load_hdf5(path):
         kind = f.attrs.get("format")
         kind = kind.decode() if isinstance(kind, bytes) else kind
         summary = _attributes(f["summary"]) if "summary" in f else {}
+        if isinstance(summary.get("warning_list"), str):  # JSON: the warnings with their kinds
+            import json
+            summary["warning_list"] = json.loads(summary["warning_list"])
         if kind == "nonholo run":
             names = [n.decode() if isinstance(n, bytes) else n for n in f["coordinates"][()]]
             velocities = ([n.decode() if isinstance(n, bytes) else n for n in f["velocities"][()]]

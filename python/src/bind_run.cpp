@@ -13,7 +13,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <future>
+#include <iostream>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -54,6 +56,10 @@ class ArraySink : public scenarios::FrameSink {
     residual.push_back(d.residual);
     gap.push_back(d.gap);
   }
+  void progress(double time, double fraction) override {
+    now_t_ = time;
+    now_fraction_ = fraction;
+  }
   bool stop_requested() override {
     if (++count_ < stride_) return false;
     count_ = 0;
@@ -66,19 +72,33 @@ class ArraySink : public scenarios::FrameSink {
     if (since > 0.1 && stride_ > 1) stride_ /= 2;
     last_ = now;
     py::gil_scoped_acquire gil;
-    if (PyErr_CheckSignals() == 0) return false;
-    error.emplace();  // fetches the exception the handler raised (KeyboardInterrupt)
+    if (PyErr_CheckSignals() == 0 && report_progress()) return false;
+    if (!error) error.emplace();  // fetches the exception the handler (or the progress callable) raised
     return true;
+  }
+  // The caller's progress callable with the latest step's t and fraction (GIL held); false, with
+  // its exception pending, if it raised.
+  bool report_progress() {
+    if (on_progress.is_none() || std::isnan(now_t_)) return true;
+    try {
+      on_progress(now_t_, now_fraction_);
+      return true;
+    } catch (py::error_already_set& e) {
+      e.restore();
+      return false;
+    }
   }
 
   std::vector<std::string> names, velocity_names;
   std::vector<double> t, q, p, energy, energy_post, residual, gap;
   std::optional<py::error_already_set> error;
+  py::object on_progress = py::none();  // progress(t, fraction), every 20-100 ms and at the end
 
  private:
   using Clock = std::chrono::steady_clock;
   long count_ = 0, stride_ = 1;
   Clock::time_point last_ = Clock::now();
+  double now_t_ = std::numeric_limits<double>::quiet_NaN(), now_fraction_ = 0.0;
 };
 
 py::dict summary_dict(const RunSummary& s) {
@@ -94,6 +114,14 @@ py::dict summary_dict(const RunSummary& s) {
   d["message"] = s.message;
   d["warning"] = s.warning;
   d["threads_note"] = s.threads_note;
+  py::list warnings;  // one by one with their kinds (nonholo.run raises them as Python warnings)
+  for (const scenarios::RunWarning& w : s.warnings) {
+    py::dict one;
+    one["kind"] = scenarios::to_string(w.kind);
+    one["text"] = w.text;
+    warnings.append(one);
+  }
+  d["warning_list"] = warnings;
   return d;
 }
 
@@ -145,16 +173,23 @@ std::vector<scenarios::StopCondition> stop_conditions(const py::list& given) {
   return out;
 }
 
-py::dict run(const std::vector<std::string>& args, const py::list& conditions) {
+// The run's last progress call (the fraction reached) once it has ended, unless it was stopped.
+void final_progress(ArraySink& sink) {
+  if (!sink.error && !sink.report_progress()) sink.error.emplace();
+}
+
+py::dict run(const std::vector<std::string>& args, const py::list& conditions, const py::object& progress) {
   scenarios::RunConfig config = scenarios::parse_run_arguments(args);
   config.stop_conditions = stop_conditions(conditions);
   ArraySink sink;
+  sink.on_progress = progress;
   config.sink = &sink;
   RunSummary summary;
   {
     py::gil_scoped_release release;
     summary = scenarios::run_scene(config);
   }
+  final_progress(sink);
   return run_dict(summary, sink);
 }
 
@@ -177,7 +212,8 @@ Vector start_vector(const py::object& value, const char* what) {
 // scene (args[0], the model's name), the start from t0, q0, v0 or a State. The run holds no GIL:
 // a model's Python callables take it for each call.
 py::dict run_model(const PyModel& model, const std::vector<std::string>& args, double t0, const py::object& q0,
-                   const py::object& v0, const std::optional<State>& state, const py::list& conditions) {
+                   const py::object& v0, const std::optional<State>& state, const py::list& conditions,
+                   const py::object& progress) {
   scenarios::RunConfig config = scenarios::parse_run_arguments(args);
   config.stop_conditions = stop_conditions(conditions);
   scenarios::RunStart start;
@@ -186,12 +222,14 @@ py::dict run_model(const PyModel& model, const std::vector<std::string>& args, d
   start.v0 = start_vector(v0, "v0");
   start.state = state;
   ArraySink sink;
+  sink.on_progress = progress;
   config.sink = &sink;
   RunSummary summary;
   {
     py::gil_scoped_release release;
     summary = scenarios::run_model(model.model, start, config);
   }
+  final_progress(sink);
   return run_dict(summary, sink);
 }
 
@@ -218,8 +256,7 @@ BatchResult run_batch_polling(scenarios::BatchConfig config, std::optional<py::e
 }
 
 // The batch's table as columns (the CSV's, same names and order) and its summary.
-py::dict batch(const std::vector<std::string>& args, bool keep_states) {
-  scenarios::BatchConfig config = scenarios::parse_batch_arguments(args);
+py::dict batch_dict(scenarios::BatchConfig& config, bool keep_states) {
   config.keep_states = keep_states;
   std::optional<py::error_already_set> interrupt;
   BatchResult result = run_batch_polling(config, interrupt);
@@ -285,6 +322,49 @@ py::dict batch(const std::vector<std::string>& args, bool keep_states) {
   return out;
 }
 
+py::dict batch(const std::vector<std::string>& args, bool keep_states) {
+  scenarios::BatchConfig config = scenarios::parse_batch_arguments(args);
+  return batch_dict(config, keep_states);
+}
+
+// The draws of `nonholo batch ARGS` (its --vary, --seed): count x varied, for a factory called
+// before the batch (nonholo.batch(factory, ...)).
+py::array_t<double> batch_draws(const std::vector<std::string>& args, long count) {
+  const scenarios::BatchConfig config = scenarios::parse_batch_arguments(args);
+  std::vector<double> all;
+  for (long i = 0; i < count; ++i) {
+    const std::vector<double> row = scenarios::batch_draws(config, i);
+    all.insert(all.end(), row.begin(), row.end());
+  }
+  return take(std::move(all), {static_cast<py::ssize_t>(count), static_cast<py::ssize_t>(config.vary.size())});
+}
+
+// A batch of models built in Python (nonholo.batch(factory, ...)): `made` holds each trajectory's
+// (model, t0, q0, v0, state), made by the factory on the calling thread before; the batch's
+// threads take them in turn (the list keeps the models alive until it has ended).
+py::dict batch_models(const std::vector<std::string>& args, bool keep_states, const py::list& made) {
+  scenarios::BatchConfig config = scenarios::parse_batch_arguments(args);
+  if (static_cast<long>(made.size()) != config.count)
+    throw py::value_error("the factory made " + std::to_string(made.size()) + " trajectories for count " +
+                          std::to_string(config.count));
+  std::vector<scenarios::BatchModel> trajectories;
+  for (const py::handle item : made) {
+    const auto entry = item.cast<py::tuple>();
+    const PyModel& model = entry[0].cast<const PyModel&>();
+    scenarios::BatchModel m;
+    m.model = std::shared_ptr<const Model>(std::shared_ptr<const Model>(), &model.model);  // not owned: `made` holds it
+    m.start.t0 = entry[1].cast<double>();
+    m.start.q0 = start_vector(entry[2], "q0");
+    m.start.v0 = start_vector(entry[3], "v0");
+    if (!entry[4].is_none()) m.start.state = entry[4].cast<State>();
+    trajectories.push_back(std::move(m));
+  }
+  config.factory = [&trajectories](const std::vector<double>&, long i) {
+    return trajectories[static_cast<std::size_t>(i)];
+  };
+  return batch_dict(config, keep_states);
+}
+
 py::list scenes() {
   py::list list;
   for (const auto& info : scenarios::scene_catalogue()) {
@@ -307,19 +387,39 @@ py::list scenes() {
   return list;
 }
 
+// The nonholo executable's command line in this process (python -m nonholo, the wheel's nonholo
+// command): its output on the process's standard streams, without the GIL (Ctrl-C: the tool's
+// own handler, as in the executable).
+int main_of(const std::vector<std::string>& args) {
+  std::vector<const char*> argv{"nonholo"};
+  for (const std::string& a : args) argv.push_back(a.c_str());
+  py::gil_scoped_release release;
+  const int code = scenarios::run_command_line(static_cast<int>(argv.size()), argv.data(), std::cout, std::cerr);
+  std::cout.flush();
+  return code;
+}
+
 }  // namespace
 
 void bind_run(py::module_& m) {
-  m.def("_run", &run, py::arg("args"), py::arg("conditions") = py::list(),
+  m.def("_main", &main_of, py::arg("args"),
+        "the nonholo command line (run, batch, list, wp) with these arguments, on this process's standard "
+        "output and error; its exit code");
+  m.def("_run", &run, py::arg("args"), py::arg("conditions") = py::list(), py::arg("progress") = py::none(),
         "nonholo run with the command line's arguments (the scene first) and stop conditions in Python "
         "((name, f, every) tuples): a dict of the summary and arrays");
   m.def("_run_model", &run_model, py::arg("model"), py::arg("args"), py::arg("t0"), py::arg("q0"), py::arg("v0"),
-        py::arg("state"), py::arg("conditions") = py::list(),
+        py::arg("state"), py::arg("conditions") = py::list(), py::arg("progress") = py::none(),
         "run() of a model built in code: the command line's arguments (the model's name first), its start and "
         "stop conditions in Python");
   m.def("_batch", &batch, py::arg("args"), py::arg("keep_states") = false,
         "nonholo batch with the command line's arguments: a dict of the summary and the table's columns (and "
         "the final states with keep_states)");
+  m.def("_batch_draws", &batch_draws, py::arg("args"), py::arg("count"),
+        "the values each trajectory of nonholo batch ARGS draws for its --vary parameters (count x varied)");
+  m.def("_batch_models", &batch_models, py::arg("args"), py::arg("keep_states"), py::arg("made"),
+        "nonholo batch of models built in Python: the command line's arguments (the model's name first) and "
+        "each trajectory's (model, t0, q0, v0, state)");
   m.def("_scenes", &scenes, "the built-in scenes with their parameters, defaults and descriptions");
 }
 

@@ -96,6 +96,14 @@ void add_run_options(CLI::App* cmd, RunOptions& o) {
                   "steps at 10 tol, alongside: sees errors that grow; half the run's cost again), sampled "
                   "(sampled step doubling: a few per cent, blind to growth) or auto (default: the companion "
                   "up to 300000 velocities, sampled above)");
+  cmd->add_flag_function(
+      "--quiet", [&o](std::int64_t) { o.config.verbosity = 0; },
+      "nothing on standard error but errors: no progress bar, warnings or notes (the summary line still lists "
+      "the warnings' kinds)");
+  cmd->add_flag_function(
+      "--verbose", [&o](std::int64_t) { o.config.verbosity = 2; },
+      "also where standard error is no terminal (a log): each set-up phase and the progress every 10 s as "
+      "lines; each warning on its own line with its kind");
 }
 
 // A batch keeps one row of results per trajectory until it ends: refuse a --count whose rows
@@ -118,6 +126,8 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
     throw std::invalid_argument("scene is required: a scene name, a scene file FILE.json (or --resume FILE.h5)");
   if (cmd->count("--dt") && !(run.dt > 0.0))
     throw std::invalid_argument("--dt " + std::to_string(run.dt) + ": the step must be positive");
+  if (cmd->count("--quiet") && cmd->count("--verbose"))
+    throw std::invalid_argument("--quiet and --verbose: give one of them");
   if (run.method != "reflection") {
     for (const char* option :
          {"--hitch", "--restart", "--restart-tol", "--monitor-every", "--order", "--composition", "--rotation"})
@@ -157,6 +167,14 @@ void finish_run_options(const CLI::App* cmd, RunOptions& o) {
 // One line to a stream in one write: under mpirun the ranks' stderr (unbuffered) would otherwise
 // interleave piece by piece ("nonholo nonholo batch: ..." when two ranks fail at once).
 void say(std::ostream& os, const std::string& line) { os << line + "\n" << std::flush; }
+
+// A run's warnings on standard error: none with --quiet, one line of them all by default, one line
+// each with its kind with --verbose.
+void warn(std::ostream& os, const std::string& who, const RunSummary& s, int verbosity) {
+  if (verbosity <= 0 || s.warnings.empty()) return;
+  if (verbosity == 1) return say(os, who + ": warning: " + s.warning);
+  for (const RunWarning& w : s.warnings) say(os, who + ": warning (" + to_string(w.kind) + "): " + w.text);
+}
 
 // "nonholo run sleigh --dt 0.1": the words as given, quoted where a shell would need it.
 std::string command_of(const std::string& command, const std::vector<std::string>& args) {
@@ -203,11 +221,11 @@ void finish_run_command(const CLI::App* cmd, RunConfig& run, const std::string& 
   for (const CLI::Option* option : cmd->get_options()) {
     const std::string name = option->get_name();
     if (option->count() == 0 || name == "--resume" || name == "--t-end" || name == "--checkpoint" ||
-        name == "--checkpoint-every" || name == "--help")
+        name == "--checkpoint-every" || name == "--help" || name == "--quiet" || name == "--verbose")
       continue;
     throw std::invalid_argument((name == "scene" ? std::string("a scene") : name) +
                                 " with --resume: the run's options come from the checkpoint (only --t-end, "
-                                "--checkpoint and --checkpoint-every may be given)");
+                                "--checkpoint, --checkpoint-every, --quiet and --verbose may be given)");
   }
 }
 
@@ -388,7 +406,7 @@ int dispatch(int argc, const char* const* argv, std::ostream& out, std::ostream&
       InterruptScope on_ctrl_c;  // Ctrl-C: finish the rows, print the summary, exit 130
       const BatchResult result = run_batch(batch);
       out << result.line() << std::endl;
-      if (!result.aggregate.warning.empty()) say(err, "nonholo batch: warning: " + result.aggregate.warning);
+      warn(err, "nonholo batch", result.aggregate, batch.run.verbosity);
       if (result.failed > 0) {
         say(err, "nonholo batch: " + std::to_string(result.failed) + " of " + std::to_string(result.trajectories) +
                      " trajectories failed; first: " + result.first_failure);
@@ -403,9 +421,9 @@ int dispatch(int argc, const char* const* argv, std::ostream& out, std::ostream&
     InterruptScope on_ctrl_c;
     const RunSummary summary = run_scene(run.config);
     (run.config.csv_path == "-" ? err : out) << summary.line() << std::endl;  // --out -: the CSV is stdout
-    if (!summary.warning.empty()) say(err, "nonholo run: warning: " + summary.warning);
-    if (!summary.threads_note.empty()) say(err, "nonholo run: note: " + summary.threads_note);
-    if (summary.status == Status::Stopped) say(err, "nonholo run: " + summary.message);
+    warn(err, "nonholo run", summary, run.config.verbosity);
+    if (run.config.verbosity > 0 && !summary.threads_note.empty()) say(err, "nonholo run: note: " + summary.threads_note);
+    if (run.config.verbosity > 0 && summary.status == Status::Stopped) say(err, "nonholo run: " + summary.message);
     if (summary.status != Status::Ok && summary.status != Status::Stopped) {
       say(err, "nonholo run: " + summary.message);
       if (summary.status == Status::Inaccurate) return kInaccurateExit;

@@ -64,6 +64,7 @@ def test_a_start_from_a_state_and_a_later_start_time():
     assert np.array_equal(later.q, a.q)  # the chain has no time in it
 
 
+@pytest.mark.filterwarnings("ignore::nonholo.RunWarning")  # its companion fails at 2 dt: expected
 def test_a_too_large_step_is_inaccurate_and_check_raises():
     model = chain(5)
     q0, v0 = chain_start(5, turn=5.0)
@@ -189,3 +190,66 @@ def test_a_raising_stop_condition_ends_the_run_with_its_name():
         nonholo.run(model, q0=q0, v0=v0, dt=0.01, t_end=1, stop="x0>1", stop_every=3)
     with pytest.raises(ValueError, match="no coordinate 'x9' in the model"):
         nonholo.run(model, q0=q0, v0=v0, dt=0.01, t_end=1, stop="x9>1")
+
+
+def test_progress_reports_the_time_and_fraction_and_its_exception_stops_the_run():
+    calls = []
+    r = nonholo.run("sleigh_chain", set={"bodies": 50}, t_end=5, every=100,
+                    progress=lambda t, f: calls.append((t, f)))
+    assert r.status == "ok"
+    assert calls[-1] == (r.t[-1], 1.0)  # the last call: the run's end
+    assert all(0.0 <= f <= 1.0 for _, f in calls)
+    assert [f for _, f in calls] == sorted(f for _, f in calls)
+
+    def tired(t, f):
+        raise ZeroDivisionError("tired at %g" % t)
+
+    with pytest.raises(ZeroDivisionError, match="tired at") as raised:
+        nonholo.run("sleigh", t_end=1, progress=tired)
+    assert raised.value.result.t.shape[0] >= 1  # the frames so far
+    with pytest.raises(ValueError, match="progress: expected a callable"):
+        nonholo.run("sleigh", progress=3)
+
+
+def test_warnings_are_raised_by_kind():
+    # The stiff train at dt 0.15 ends ok with a stability, an accuracy and a method warning.
+    with pytest.warns(nonholo.RunWarning) as caught:
+        r = nonholo.run("wheeled_train", set={"bodies": 5, "k": 50}, dt=0.15, t_end=6)
+    assert r.status == "ok" and r.summary["warnings"] == "stability,accuracy,method"
+    kinds = [w["kind"] for w in r.summary["warning_list"]]
+    assert kinds == ["stability", "accuracy", "method"]
+    assert [type(w.message) for w in caught] == [nonholo.StabilityWarning, nonholo.AccuracyWarning,
+                                                 nonholo.MethodWarning]
+    assert "use dt=0.0588 for accuracy" in str(caught[0].message)  # the keyword, not --dt
+    assert caught[0].filename == __file__  # the caller's line
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", nonholo.PerformanceWarning)
+        warnings.simplefilter("ignore", nonholo.RunWarning)
+        nonholo.run("wheeled_train", set={"bodies": 5, "k": 50}, dt=0.15, t_end=6)  # no performance warning
+
+
+def test_a_batch_of_a_factory_is_its_trajectories_run_one_by_one():
+    made = []
+
+    def factory(params):
+        made.append(params)
+        q0, v0 = chain_start(3, turn=params["turn"])
+        return chain(3), q0, v0
+
+    kwargs = dict(count=5, vary={"turn": (0.0, 2.0)}, seed=7, dt=0.01, t_end=1.0, states=True, name="chains")
+    one = nonholo.batch(factory, threads=1, **kwargs)
+    two = nonholo.batch(factory, threads=2, **kwargs)
+    assert one.summary["failed"] == 0 and one.summary["scene"] == "chains"
+    assert np.array_equal(one.q, two.q) and np.array_equal(one.p, two.p)
+    assert [p["turn"] for p in made[:5]] == list(one.columns["turn"])  # called with the rows' draws
+    for i in range(5):
+        q0, v0 = chain_start(3, turn=one.columns["turn"][i])
+        r = nonholo.run(chain(3), q0=q0, v0=v0, dt=0.01, t_end=1.0, threads=1)
+        assert np.array_equal(r.q[-1], one.q[i]) and np.array_equal(r.p[-1], one.p[i]), i
+    with pytest.raises(ValueError, match=r"factory: trajectory 0: expected \(model, q0, v0\)"):
+        nonholo.batch(lambda params: "a model", count=2, dt=0.01, t_end=1.0)
+    with pytest.raises(ValueError, match="set: the parameters of a scene"):
+        nonholo.batch(factory, count=2, dt=0.01, t_end=1.0, set={"bodies": 3})
+    with pytest.raises(ValueError, match="t_end: give the end time"):
+        nonholo.batch(factory, count=2, dt=0.01, vary={"turn": (0.0, 1.0)})

@@ -71,6 +71,23 @@ def test_the_installed_package_runs_from_anywhere(venv, tmp_path):
     assert "max |q - q_exact|" in out and (tmp_path / "particle.png").is_file()
 
 
+def test_the_installed_package_has_the_command_line(venv, tmp_path):
+    # pip install users get the tool: the wheel's `nonholo` command and `python -m nonholo` run
+    # run, batch, list and wp in-process (the tool's own code: its summary line, exit codes and
+    # messages), animate and view in Python.
+    command = venv / "bin" / "nonholo"
+    line = run(command, "run", "sleigh", "--t-end", "1", "--out", tmp_path / "s.h5", cwd="/").strip()
+    assert line.startswith("scene=sleigh method=reflection") and line.endswith("status=ok")
+    assert "particle:" in run(venv / "bin" / "python", "-m", "nonholo", "list", cwd="/")
+    done = subprocess.run([str(command), "run", "sleigh", "--dt", "-1"], capture_output=True, text=True, env=CLEAN)
+    assert done.returncode == 1 and "nonholo run: --dt -1" in done.stderr
+    done = subprocess.run([str(command), "run", "sleigh", "--dt", "2"], capture_output=True, text=True, env=CLEAN)
+    assert done.returncode == 3 and "status=inaccurate" in done.stdout  # the tool's exit codes
+    page = tmp_path / "s.html"
+    run(command, "view", tmp_path / "s.h5", "-o", page, cwd="/")
+    assert page.stat().st_size > 1000
+
+
 def test_mypy_finds_the_installed_packages_types(venv, tmp_path):
     # Through py.typed and _core.pyi in site-packages (no MYPYPATH): a misuse is an error, and the
     # example checks clean.

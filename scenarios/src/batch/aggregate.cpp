@@ -50,6 +50,11 @@ void aggregate(const PreparedRun& prepared, const BatchConfig& config, std::vect
     agg.legendre_iterations_max = std::max(agg.legendre_iterations_max, s.legendre_iterations_max);
     if (!std::isnan(s.stability_ratio)) agg.stability_ratio = worst(agg.stability_ratio, s.stability_ratio);
     if (agg.warning.empty() && !s.warning.empty()) agg.warning = "trajectory " + std::to_string(i) + ": " + s.warning;
+    for (const RunWarning& w : s.warnings) {  // each kind once: the first trajectory's
+      auto same = [&w](const RunWarning& seen) { return seen.kind == w.kind; };
+      if (std::none_of(agg.warnings.begin(), agg.warnings.end(), same))
+        agg.warnings.push_back({w.kind, "trajectory " + std::to_string(i) + ": " + w.text});
+    }
     if (!std::isnan(s.parasitic_max) && !(s.parasitic_max <= agg.parasitic_max)) {
       agg.parasitic_max = s.parasitic_max;
       if (!s.warning.empty()) agg.warning = "trajectory " + std::to_string(i) + ": " + s.warning;

@@ -50,6 +50,14 @@ Variation parse_variation(const std::string& text) {
   return v;
 }
 
+// Trajectory i's draws: they depend on (seed, trajectory, variation) only.
+std::vector<double> draws(const std::vector<Variation>& variations, std::uint64_t seed, long i) {
+  Random random(seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(i));
+  std::vector<double> values;
+  for (const auto& v : variations) values.push_back(v.lo + (v.hi - v.lo) * random.uniform());
+  return values;
+}
+
 // Ctrl-C (or the caller's stop) before trajectory i began: marked interrupted, not set up.
 bool stop_before_start(const RunConfig& config, const PreparedRun& prepared, RunSummary& summary) {
   const bool ctrl_c = interrupt_requested();
@@ -98,6 +106,7 @@ class BatchRun {
   void integrate_here();    // on this process's threads
   bool integrate_spread();  // over the processes (MPI ranks)
   void integrate_row(long i, Row& row);
+  TrajectoryResult integrate_made(long i, const std::vector<double>& values, const TrajectoryHooks& hooks);
   void journal_row(long i, int thread, const Row& row);
   void keep(long i, Row& row);
   BatchResult tabulate();                // the summary and the table's columns
@@ -158,7 +167,7 @@ void BatchRun::check_options() {
     throw std::invalid_argument("--out " + config_.out + ": name the file .csv (text) or .h5 / .hdf5 (HDF5)");
   // `--out b.h5 --states b.h5` wrote the states over the table (file_identity.hpp).
   refuse_shared_files({{"--out", config_.out}, {"--states", config_.states}},
-                      {{"the scene file", is_scene_file(config_.run.scene) ? config_.run.scene : ""}});
+                      {{"the scene file", !config_.factory && is_scene_file(config_.run.scene) ? config_.run.scene : ""}});
   start_ = std::chrono::steady_clock::now();
   if (config_.count < 1) throw std::invalid_argument("--count " + std::to_string(config_.count) + ": must be at least 1");
   if (config_.threads < 0)
@@ -170,6 +179,13 @@ void BatchRun::prepare() {
   run_config_.threads = 1;  // the batch's threads run trajectories, each on one
   run_config_.csv_path.clear();
   run_config_.sink = nullptr;
+  if (config_.factory) {  // a model built in code: the factory reads the varied values itself
+    prepared_ = prepare_model_run(run_config_, 0.0);
+    base_.emplace(prepared_.info.name, std::vector<ParameterSpec>{});
+    for (const auto& text : config_.vary) variations_.push_back(parse_variation(text));
+    for (const auto& v : variations_) varied_.push_back(v.name);
+    return;
+  }
   prepared_ = prepare_run(run_config_);
   base_.emplace(prepared_.info.defaults());
   for (const auto& a : config_.run.assignments) base_->assign(a);
@@ -195,7 +211,8 @@ bool BatchRun::integrate() {
   if (keep_states_) states_.resize(static_cast<std::size_t>(config_.count));
   // Over several MPI ranks each sees only its own share: no bar then.
   const bool spread = config_.processes && config_.processes->size() > 1;
-  progress_ = std::make_unique<Progress>("batch " + prepared_.info.name, spread ? 0 : config_.count);
+  progress_ = std::make_unique<Progress>("batch " + prepared_.info.name, spread ? 0 : config_.count,
+                                         config_.run.verbosity);
   journal_->begin(threads_);
   if (!config_.processes)
     integrate_here();
@@ -249,14 +266,7 @@ bool BatchRun::integrate_spread() {
 }
 
 void BatchRun::integrate_row(long i, Row& row) {
-  Parameters p = *base_;
-  // Draws depend on (seed, trajectory, variation) only.
-  Random random(config_.seed * 0x9E3779B97F4A7C15ull + static_cast<std::uint64_t>(i));
-  for (const auto& v : variations_) {
-    const double x = v.lo + (v.hi - v.lo) * random.uniform();
-    p.set(v.name, x);
-    row.values.push_back(x);
-  }
+  row.values = draws(variations_, config_.seed, i);
   if (stop_before_start(run_config_, prepared_, row.summary)) {
     progress_->add(1);
     return;
@@ -270,7 +280,11 @@ void BatchRun::integrate_row(long i, Row& row) {
   };
   hooks.final_q = true;
   hooks.final_state = keep_states_;
-  TrajectoryResult r = integrate_scene(prepared_, p, run_config_, hooks);
+  TrajectoryResult r = config_.factory ? integrate_made(i, row.values, hooks) : integrate_scene(prepared_, [&] {
+    Parameters p = *base_;
+    for (std::size_t v = 0; v < variations_.size(); ++v) p.set(variations_[v].name, row.values[v]);
+    return p;
+  }(), run_config_, hooks);
   row.summary = std::move(r.summary);
   row.summary.threads = 0;  // the batch line reports its own threads
   row.final_q = std::move(r.final_q);
@@ -280,6 +294,17 @@ void BatchRun::integrate_row(long i, Row& row) {
     row.velocities = std::move(r.velocities);
   }
   progress_->add(1);
+}
+
+// Trajectory i of a model built in code: the factory's model and start (a start at t0 != 0 counts
+// its steps from there: the run's options prepared again for it).
+TrajectoryResult BatchRun::integrate_made(long i, const std::vector<double>& values, const TrajectoryHooks& hooks) {
+  const BatchModel made = config_.factory(values, i);
+  if (!made.model) throw std::invalid_argument("the factory gave trajectory " + std::to_string(i) + " no model");
+  const double t0 = made.start.state ? made.start.state->t : made.start.t0;
+  if (t0 == 0.0) return integrate_model(prepared_, *made.model, made.start, *base_, run_config_, hooks);
+  const PreparedRun later = prepare_model_run(run_config_, t0);
+  return integrate_model(later, *made.model, made.start, *base_, run_config_, hooks);
 }
 
 // A finished row into the journal: body 0's first three coordinates (NaN where there are fewer
@@ -331,7 +356,7 @@ BatchResult BatchRun::tabulate() {
   aggregate(prepared_, config_, rows_, errors_, result);
   if (names_.empty()) {
     names_ = {"q0", "q1", "q2"};
-    try {
+    if (!config_.factory) try {
       names_ = prepared_.info.build(*base_).model.coordinate_names();
     } catch (const std::exception&) {  // the fixed parameters alone are not a valid scene
     }
@@ -377,5 +402,11 @@ std::string BatchResult::line() const {
 }
 
 BatchResult run_batch(const BatchConfig& config) { return BatchRun(config).run(); }
+
+std::vector<double> batch_draws(const BatchConfig& config, long trajectory) {
+  std::vector<Variation> variations;
+  for (const auto& text : config.vary) variations.push_back(parse_variation(text));
+  return draws(variations, config.seed, trajectory);
+}
 
 }  // namespace nonholo::scenarios

@@ -4,13 +4,14 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <type_traits>
 
 namespace nonholo::scenarios {
 namespace {
 
 // A field added to RunSummary must be added to fields() below, or MPI batches would lose it:
 // this fails to compile until then (the size on x86-64 Linux, libstdc++).
-static_assert(sizeof(void*) != 8 || sizeof(RunSummary) == 648,
+static_assert(sizeof(void*) != 8 || sizeof(RunSummary) == 672,
               "RunSummary changed: add the new field to fields() in batch_row.cpp, then update this size");
 
 // Every field of RunSummary, in one order for both directions.
@@ -26,6 +27,18 @@ void fields(Archive& a, Summary& s) {
   a(s.has_momentum), a(s.has_error_estimate);
   a(s.momentum_drift_max), a(s.rotation), a(s.legendre_iterations_max), a(s.threads);
   a(s.threads_note), a(s.setup_s), a(s.accuracy_check), a(s.stopped_by), a(s.t_stop);
+  long warnings = static_cast<long>(s.warnings.size());
+  a(warnings);
+  if constexpr (std::is_const_v<Summary>) {
+    for (const auto& w : s.warnings) a(static_cast<int>(w.kind)), a(w.text);
+  } else {
+    s.warnings.resize(static_cast<std::size_t>(warnings));
+    for (auto& w : s.warnings) {
+      int kind = 0;
+      a(kind), a(w.text);
+      w.kind = static_cast<WarningKind>(kind);
+    }
+  }
 }
 
 }  // namespace

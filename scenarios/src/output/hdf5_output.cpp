@@ -6,6 +6,7 @@
 #include "output/xdmf.hpp"
 
 #include <hdf5.h>
+#include <nlohmann/json.hpp>
 #include <nonholo/build_config.hpp>
 #include <nonholo/version.hpp>
 
@@ -75,6 +76,10 @@ void describe_summary(hid_t file, const std::string& path, const RunSummary& s, 
   attribute(g.get(), path, "message", s.message);
   attribute(g.get(), path, "warning", s.warning);
   attribute(g.get(), path, "threads_note", s.threads_note);
+  // The warnings one by one with their kinds, as JSON (Python's load reads it back as a list).
+  nlohmann::json warnings = nlohmann::json::array();
+  for (const RunWarning& w : s.warnings) warnings.push_back({{"kind", to_string(w.kind)}, {"text", w.text}});
+  attribute(g.get(), path, "warning_list", warnings.dump());
 }
 
 // A dataset of `columns` columns (0: 1-D) that grows by rows: chunked (about 1 MB a chunk),

@@ -9,6 +9,17 @@
 
 namespace nonholo::scenarios {
 
+const char* to_string(WarningKind kind) {
+  switch (kind) {
+    case WarningKind::Accuracy: return "accuracy";
+    case WarningKind::Stability: return "stability";
+    case WarningKind::Precision: return "precision";
+    case WarningKind::Method: return "method";
+    case WarningKind::Performance: return "performance";
+  }
+  return "unknown";
+}
+
 std::vector<SummaryField> RunSummary::fields() const {
   std::vector<SummaryField> f;
   auto text = [&f](const char* key, const std::string& value) { f.push_back({key, SummaryField::Text, 0.0, 0, value}); };
@@ -62,6 +73,14 @@ std::vector<SummaryField> RunSummary::fields() const {
   }
   text("backend", backend);
   if (threads > 0) integer("threads", threads);
+  if (!warnings.empty()) {  // the kinds, each once, in the order they came
+    std::string kinds;
+    for (const RunWarning& w : warnings) {
+      const std::string kind = to_string(w.kind);
+      if (("," + kinds + ",").find("," + kind + ",") == std::string::npos) kinds += (kinds.empty() ? "" : ",") + kind;
+    }
+    text("warnings", kinds);
+  }
   text("status", to_string(status));
   return f;
 }

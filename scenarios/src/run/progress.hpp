@@ -4,7 +4,9 @@
 // time left. Before it, status() shows what a long set-up is doing ("setting up sleigh_chain
 // (1000000 bodies): analysing C..."); the bar, begin_steps() or finish() wipes it. Thread-safe:
 // update() may be called from any thread; whichever gets the mutex redraws, at most ten times
-// a second. Everything update() reads before taking the mutex is atomic.
+// a second. Everything update() reads before taking the mutex is atomic. Verbosity 0 (--quiet)
+// draws nothing; 2 (--verbose) writes lines where stderr is no terminal (a log): each set-up
+// phase, and the progress every 10 s.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -20,8 +22,11 @@ namespace nonholo::scenarios {
 
 class Progress {
  public:
-  Progress(std::string label, long total)
-      : label_(std::move(label)), total_(total), enabled_(total > 0 && (isatty(fileno(stderr)) || forced())),
+  Progress(std::string label, long total, int verbosity = 1)
+      : label_(std::move(label)),
+        total_(total),
+        enabled_(total > 0 && verbosity > 0 && (isatty(fileno(stderr)) || forced() || verbosity >= 2)),
+        lines_(verbosity >= 2 && !isatty(fileno(stderr)) && !forced()),
         start_(Clock::now()) {}
   ~Progress() { finish(); }
 
@@ -30,6 +35,11 @@ class Progress {
   void status(const std::string& text) {
     if (!enabled_) return;
     std::lock_guard<std::mutex> lock(mutex_);
+    if (lines_) {
+      std::fprintf(stderr, "%s\n", text.c_str());
+      std::fflush(stderr);
+      return;
+    }
     const std::string line = text.size() > kStatusWidth ? text.substr(0, kStatusWidth) : text;
     std::fprintf(stderr, "\r%-*s", std::max(shown_, static_cast<int>(line.size())), line.c_str());
     std::fflush(stderr);
@@ -52,8 +62,8 @@ class Progress {
   }
   void update(long done) {
     if (!enabled_) return;
-    const std::int64_t now = since_start_ns();
-    if (now < kFirstDrawNs || now - last_ns_.load(std::memory_order_relaxed) < kRedrawNs) return;
+    const std::int64_t now = since_start_ns(), every = lines_ ? kLineNs : kRedrawNs;
+    if (now < (lines_ ? kLineNs : kFirstDrawNs) || now - last_ns_.load(std::memory_order_relaxed) < every) return;
     std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);
     if (!lock) return;
     last_ns_.store(now, std::memory_order_relaxed);
@@ -66,6 +76,11 @@ class Progress {
     std::string bar(static_cast<std::size_t>(filled), '#');
     bar.resize(width, '.');
     const double left = f > 0.0 ? 1e-9 * static_cast<double>(now) * (1.0 - f) / f : -1.0;
+    if (lines_) {
+      std::fprintf(stderr, "%s: %5.1f%% %s\n", label_.c_str(), 100.0 * f, format_eta(left).c_str());
+      std::fflush(stderr);
+      return;
+    }
     std::fprintf(stderr, "\r%s [%s] %5.1f%% %s", label_.c_str(), bar.c_str(), 100.0 * f, format_eta(left).c_str());
     std::fflush(stderr);
     shown_ = static_cast<int>(label_.size()) + kLineExtra;
@@ -92,6 +107,7 @@ class Progress {
  private:
   using Clock = std::chrono::steady_clock;
   static constexpr std::int64_t kFirstDrawNs = 500'000'000, kRedrawNs = 100'000'000;
+  static constexpr std::int64_t kLineNs = 10'000'000'000;  // --verbose in a log: a line every 10 s
   static constexpr int kLineExtra = 58;  // " [bar] 100.0% ETA 99h59m59s" and some room
   static constexpr std::size_t kStatusWidth = 79;
 
@@ -116,6 +132,7 @@ class Progress {
   std::string label_;
   long total_;
   bool enabled_;
+  bool lines_;  // lines for a log (--verbose, stderr no terminal) instead of a bar redrawn in place
   std::atomic<long> done_{0};
   Clock::time_point start_;
   std::atomic<std::int64_t> last_ns_{0};  // read before the mutex is taken: atomic

@@ -158,6 +158,7 @@ RunConfig resumed_config(const RunConfig& given, const std::string& bytes, RunSo
   saved.sink = given.sink;
   saved.stop = given.stop;
   saved.stop_conditions = given.stop_conditions;
+  saved.verbosity = given.verbosity;
   return saved;
 }
 
@@ -260,7 +261,7 @@ RunSummary run_scene(const RunConfig& given) {
   run.resume = std::move(resume);
   Parameters params = run.info.defaults();
   for (const auto& a : config.assignments) params.assign(a);
-  Progress progress(run.info.name, run.steps);
+  Progress progress(run.info.name, run.steps, config.verbosity);
   TrajectoryHooks hooks;
   hooks.progress = hooks.setup_status = &progress;
   hooks.started = start_time;
@@ -282,7 +283,7 @@ RunSummary run_model(const Model& model, const RunStart& start, const RunConfig&
   PreparedRun run = prepare_model_run(config, from.state ? from.state->t : from.t0);
   run.resume = std::move(resume);
   const Parameters none(run.info.name, {});
-  Progress progress(run.info.name, run.steps);
+  Progress progress(run.info.name, run.steps, config.verbosity);
   TrajectoryHooks hooks;
   hooks.progress = hooks.setup_status = &progress;
   hooks.started = start_time;

@@ -276,8 +276,8 @@ void RunLoop::describe_run() {
   summary.method = config_.method;
   summary.backend = runner_->backend();
   summary.threads = runner_->threads();
-  add_warning(summary, thread_warning_);
-  add_warning(summary, model.performance_note());  // a scene file's chain out of order, a hub body
+  add_warning(summary, WarningKind::Performance, thread_warning_);
+  add_warning(summary, WarningKind::Performance, model.performance_note());  // a scene file's chain out of order, a hub body
   // The reference methods treat hitch rows as velocity constraints, closed by --project.
   summary.hitch = reflection_ ? to_string(config_.hitch)
                               : !reference_method(config_.method) ? "oneform"
@@ -409,6 +409,7 @@ void RunLoop::loop() {
   summary_.setup_s = std::chrono::duration<double>(loop_start_ - run_start_).count();
   for (long k = loop_.k + 1; k <= run_.steps && summary_.status == Status::Ok && summary_.stopped_by.empty(); ++k) {
     if (stop_requested(k) || watches_fail(k) || !advance(k)) break;
+    if (config_.sink) config_.sink->progress(runner_->t(), static_cast<double>(k) / static_cast<double>(run_.steps));
     const Diagnostics d = measure(k);
     const bool stop_now = summary_.status == Status::Ok && stop_condition_holds(k);
     const bool output = stop_now || k % config_.every == 0 || k == run_.steps;
@@ -660,7 +661,7 @@ void RunLoop::estimate_from_check() {
   summary.accuracy_check = adaptive ? "companion" : "sampled";
   if (!adaptive) {
     if (!loop_.check_failure.empty() && summary.status == Status::Ok)
-      add_warning(summary, loop_.check_failure + ": the sampled check judged the run instead (it cannot see errors "
+      add_warning(summary, WarningKind::Accuracy, loop_.check_failure + ": the sampled check judged the run instead (it cannot see errors "
                                                  "that grow)");
     return;
   }
@@ -738,15 +739,15 @@ void RunLoop::close_outputs() {
   }
   summary.stability_ratio = stability_->ratio();
   if (summary.status == Status::Ok) {
-    add_warning(summary, stability_->warning());
-    add_warning(summary, precision_->warning());
+    add_warning(summary, WarningKind::Stability, stability_->warning());
+    add_warning(summary, WarningKind::Precision, precision_->warning());
   }
   if (const DoublingEstimate* w = summary.steps > 0 ? runner_->accuracy() : nullptr) {  // no step: nothing to judge
     summary.error_estimate = w->estimate();
     summary.extent = w->extent();
     // (a check with no sample at all is judged in judge_accuracy: not ok)
     if (w->failed_samples() > 0 && w->samples() > 0 && summary.status == Status::Ok)  // a failed run says it all
-      add_warning(summary, "the accuracy check's step of 2 dt failed " + std::to_string(w->failed_samples()) +
+      add_warning(summary, WarningKind::Accuracy, "the accuracy check's step of 2 dt failed " + std::to_string(w->failed_samples()) +
                                " times (first at " + w->first_failure() + "): dt is within a factor 2 of what the " +
                                "method can take here; " + std::to_string(w->single_samples()) +
                                " of those samples were taken as two steps of dt/2 against one of dt instead, and " +
@@ -787,22 +788,22 @@ void RunLoop::judge() {
   if (model_.has_rigid_bodies()) summary.legendre_iterations_max = runner_->legendre_iterations();
   if (forced_) summary.energy_post_rel_err_max = std::numeric_limits<double>::quiet_NaN();  // not an invariant
   if (summary.status == Status::Ok && summary.parasitic_max > kParasiticWarning)
-    add_warning(summary, parasitic_warning(summary, choice.rattle));
+    add_warning(summary, WarningKind::Method, parasitic_warning(summary, choice.rattle));
   // ARKODE stops at every output time (--dt): one step per interval means that its error
   // control wanted longer steps than --dt allowed, at the cost of evaluations.
   const long internal = runner_->internal_steps();
   if (choice.adaptive_on() && summary.steps >= 4 && capped_by_intervals(internal, summary.steps, 2))
-    add_warning(summary, "the adaptive steps took about one pair per output interval (" + std::to_string(internal) +
+    add_warning(summary, WarningKind::Performance, "the adaptive steps took about one pair per output interval (" + std::to_string(internal) +
                              " steps for " + std::to_string(summary.steps) +
                              " intervals): --dt, the output interval, probably capped them; a larger --dt lets "
                              "the error control choose longer steps");
   else if (!choice.adaptive_on() && internal >= 0 && summary.steps >= 4 &&
            capped_by_intervals(internal, summary.steps, 1))
-    add_warning(summary, "ARKODE took about one step per output interval (" + std::to_string(internal) +
+    add_warning(summary, WarningKind::Performance, "ARKODE took about one step per output interval (" + std::to_string(internal) +
                              " steps for " + std::to_string(summary.steps) +
                              " intervals): --dt, its output interval, probably capped its step; a larger --dt "
                              "lets its error control choose longer steps (fewer evaluations at the same tolerance)");
-  add_warning(summary, loop_.companion_failure);
+  add_warning(summary, WarningKind::Accuracy, loop_.companion_failure);
   if ((runner_->accuracy() || check_companion_) && summary.steps > 0)  // after the warnings it may add to
     judge_accuracy(summary, config_, method_order(config_, choice), runner_->accuracy(), largest_coordinate(),
                    reflection_);

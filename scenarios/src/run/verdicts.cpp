@@ -128,8 +128,10 @@ std::string energy_advice(const RunSummary& r, const RattleOptions& o) {
   return r.parasitic_max > kParasiticWarning ? parasitic_warning(r, o) : "reduce --dt";
 }
 
-void add_warning(RunSummary& summary, const std::string& warning) {
-  if (!warning.empty()) summary.warning += (summary.warning.empty() ? "" : " ") + warning;
+void add_warning(RunSummary& summary, WarningKind kind, const std::string& warning) {
+  if (warning.empty()) return;
+  summary.warning += (summary.warning.empty() ? "" : " ") + warning;
+  summary.warnings.push_back({kind, warning});
 }
 
 }  // namespace nonholo::scenarios

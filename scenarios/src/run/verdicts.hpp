@@ -28,7 +28,8 @@ void judge_accuracy(RunSummary& summary, const RunConfig& config, int order, con
 std::string parasitic_warning(const RunSummary& r, const RattleOptions& o);
 // What to change when the energy blew up: restarts for a grown period-2 mode, else a smaller step.
 std::string energy_advice(const RunSummary& r, const RattleOptions& o);
-// Appends a warning (if any) to summary.warning, space-separated.
-void add_warning(RunSummary& summary, const std::string& warning);
+// Appends a warning (if any) of this kind to summary.warnings, and its text to summary.warning,
+// space-separated.
+void add_warning(RunSummary& summary, WarningKind kind, const std::string& warning);
 
 }  // namespace nonholo::scenarios

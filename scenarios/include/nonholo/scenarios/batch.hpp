@@ -10,6 +10,7 @@
 #include <nonholo/scenarios/run.hpp>
 
 #include <cstddef>
+#include <vector>
 
 namespace nonholo::scenarios {
 
@@ -25,5 +26,10 @@ void check_batch_memory(const BatchConfig& config);
 
 /// Throws std::invalid_argument on bad options (before integrating).
 BatchResult run_batch(const BatchConfig& config);
+
+/// The values trajectory `trajectory` of this batch draws for its varied parameters (`vary`, in
+/// order): uniform in [LO, HI] from the seed and the trajectory alone, whatever the threads.
+/// Throws std::invalid_argument for a malformed NAME=LO:HI.
+std::vector<double> batch_draws(const BatchConfig& config, long trajectory);
 
 }  // namespace nonholo::scenarios

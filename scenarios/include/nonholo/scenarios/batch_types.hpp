@@ -7,6 +7,8 @@
 #include <nonholo/scenarios/run_types.hpp>
 
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -34,6 +36,16 @@ class BatchProcesses {
   virtual void abandon() = 0;
 };
 
+/// One trajectory of a batch of a model built in code (BatchConfig::factory): the model, shared
+/// (the batch keeps it until the trajectory has ended), and where it starts.
+struct BatchModel {
+  std::shared_ptr<const Model> model;  ///< the model of this trajectory
+  RunStart start;                      ///< its start (t0, q0, v0; or a State)
+};
+/// Makes trajectory `trajectory`'s model and start from the values its varied parameters drew,
+/// in BatchConfig::vary's order (batch_draws()).
+using ModelFactory = std::function<BatchModel(const std::vector<double>& values, long trajectory)>;
+
 /// The options of `nonholo batch` (run_batch()).
 struct BatchConfig {
   RunConfig run;  ///< scene, `--set`, `--dt`, `--t-end`, `--method`, `--hitch`, ... (csv_path unused)
@@ -50,6 +62,12 @@ struct BatchConfig {
   bool keep_states = false;
   ///@}
   BatchProcesses* processes = nullptr;  ///< MPI ranks (not owned); null: this process alone
+  /// A batch of a model built in code instead of a scene (run.scene then names it; empty:
+  /// "model"): called once per trajectory on the batch's threads, several at once (it must be
+  /// safe to call so), with the values of `vary`, whose names are the factory's own. run.dt and
+  /// run.t_end are required, run.assignments must be empty. Under MPI every process calls it for
+  /// its own trajectories.
+  ModelFactory factory;
   /// The batch's options as parsed, one `name=value` a line (`--threads` left out: each process may
   /// have its own cores); the processes check that they all run the same.
   std::string command;

@@ -34,6 +34,12 @@ class FrameSink {
   virtual void end() {}  ///< after the last frame
   /// Polled between steps: true ends the run with status=interrupted, as Ctrl-C does.
   virtual bool stop_requested() { return false; }
+  /// After every step: the time reached and the fraction of the run's steps done (1 at its
+  /// end). Called on the run's thread before stop_requested(); keep it cheap.
+  virtual void progress(double t, double fraction) {
+    (void)t;
+    (void)fraction;
+  }
 };
 
 /// RunConfig::threads = 0 gives a chain with one-form hitches a thread per this many bodies, up
@@ -134,6 +140,10 @@ struct RunConfig {
   bool adaptive = false;
   double horizon = 0.0;  ///< adaptive: the run length the error budget is spread over (0: t_end)
   std::string command_line;  ///< how the run was asked for (the output files' "command" attribute)
+  /// What the run writes to standard error (the command line's --quiet, --verbose): 0, nothing
+  /// (not the progress bar); 1, the progress bar and set-up status on a terminal; 2, also as lines
+  /// where standard error is no terminal (a log): each set-up phase and the progress every 10 s.
+  int verbosity = 1;
 
   /// Checkpoints (README "Long runs"): the whole state of the run written to this HDF5 file at
   /// its end (also when it fails or is interrupted) and, if set, every so many steps or seconds
@@ -147,6 +157,25 @@ struct RunConfig {
   /// t_end (when >= 0: run on to it), the checkpoint settings above, sink and stop. The output
   /// file is continued from where the checkpoint left it (rows written after it are dropped).
   std::string resume_path;
+};
+
+/// What a warning of a run is about (RunWarning; Python: a category of the warnings module,
+/// nonholo.AccuracyWarning and its siblings).
+enum class WarningKind {
+  Accuracy,     ///< the accuracy check could not judge as it should (its companion or samples failed)
+  Stability,    ///< dt within a factor 2 of the explicit step's stability limit
+  Precision,    ///< coordinates large enough to lose digits of a step's displacement
+  Method,       ///< the method's own behaviour: a grown period-2 mode
+  Performance,  ///< the run could go faster: threads that do not help, steps capped by the output
+};
+/// "accuracy", "stability", "precision", "method", "performance".
+const char* to_string(WarningKind kind);
+
+/// One warning of a run that ended (RunSummary::warnings): its kind and its text, with the change
+/// that would help.
+struct RunWarning {
+  WarningKind kind;  ///< what it is about
+  std::string text;  ///< what the command line prints after "warning: "
 };
 
 /// One key=value of the summary line, with its value unrounded (the line prints 6 digits).
@@ -221,7 +250,9 @@ struct RunSummary {
   double work = 0.0;
   double energy_balance_err_max = 0.0;
   ///@}
-  std::string warning;  ///< what the user should know about a run that ended ok
+  std::string warning;  ///< what the user should know about a run that ended ok: warnings' texts, joined
+  /// The same one by one, with their kinds (the line's `warnings=` lists the kinds).
+  std::vector<RunWarning> warnings;
   /// What the clock showed about the chain's threads: empty, or that one thread ran its steps
   /// faster and for how many it did (the same results). Like wall_s, not repeatable.
   std::string threads_note;
