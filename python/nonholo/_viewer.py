@@ -23,7 +23,12 @@ The 3-D view's initial camera: looking at the centre of the centres' bounding bo
 -60 degrees and elevation 0.5 rad, at a distance 1.3 (size / 2 + 2 r) / tan(20 degrees) (size: the
 box's largest side, at least 4 r; r the scene's radius), a 40-degree vertical field of view, z up
 (drag: orbit, shift-drag: pan, wheel: zoom). Without WebGL the page draws a top view in 2-D.
-URL parameters (query or fragment): t=T (start at time T), paused=1, follow=1, axes=0 (3-D: hide each
+Followed (follow=1; the default for a planar system of more than 20 bodies, whose whole run in
+one view would draw each body a few pixels wide): centred on the mean of the front's centres (the
+first min(20, drawn) bodies, as `animate --follow`) at each time, scaled so that a square of half
+side H fits, H the front's widest reach from its mean over the kept frames plus the distance of
+its first two bodies at the start: scale = min(width, height) - 2 MARGIN_PX over 2 H.
+URL parameters (query or fragment): t=T (start at time T), paused=1, follow=1 (0: the whole run), axes=0 (3-D: hide each
 body frame's axes, drawn by default 1.8 r from the centre, x red, y green, z blue; also a checkbox),
 bench=1 (time 100 redraws and write the mean into #bench and document.body.dataset.bench, in ms).
 """

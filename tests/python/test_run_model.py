@@ -253,3 +253,17 @@ def test_a_batch_of_a_factory_is_its_trajectories_run_one_by_one():
         nonholo.batch(factory, count=2, dt=0.01, t_end=1.0, set={"bodies": 3})
     with pytest.raises(ValueError, match="t_end: give the end time"):
         nonholo.batch(factory, count=2, dt=0.01, vary={"turn": (0.0, 1.0)})
+
+
+def test_the_python_guide_leads_with_a_program_that_runs(tmp_path, monkeypatch):
+    # docs/guide/python.md's first block: build a model, run it, look at it.
+    import pathlib
+    import re
+    guide = (pathlib.Path(__file__).resolve().parents[2] / "docs" / "guide" / "python.md").read_text()
+    program = re.search(r"```python\n(.*?)```", guide, re.S).group(1)
+    assert "nonholo.run(model" in program and len(program.splitlines()) <= 20
+    monkeypatch.chdir(tmp_path)
+    scope = {}
+    exec(compile(program, "python.md", "exec"), scope)
+    assert scope["r"].status == "ok" and scope["r"].summary["scene"] == "my_chain"
+    assert (tmp_path / "chain.gif").stat().st_size > 1000

@@ -303,3 +303,30 @@ def test_the_main_job_size_and_frame_time(tmp_path):
     sys.stderr.write("wheeled_train 1000 bodies: HTML %.2f MB, %.2f ms a frame\n" % (size / 1e6, frame_ms))
     assert size < 4e6
     assert frame_ms < 100
+
+
+def test_a_long_train_is_followed_by_default_and_readable(tmp_path):
+    # The 1000-body train in one view of its whole run drew each body under 2 pixels apart. By
+    # default the page follows the front (the first 20 drawn bodies): centred on their mean, at
+    # the documented scale, which spaces its bodies tens of pixels apart; follow=0 is the whole run.
+    data = run_to(tmp_path, "wheeled_train", "--every", "20", "--t-end", "10")
+    page = view(data, tmp_path / "train.html")
+    meta = json.loads(re.search(r'<script type="application/json" id="meta">(.*?)</script>', page.read_text(),
+                                re.S).group(1))
+    result = nonholo.load(data)
+    front = meta["bodies"][:20]
+    xs = result.q[:, [result.coordinates.index("x%d" % b) for b in front]]
+    ys = result.q[:, [result.coordinates.index("y%d" % b) for b in front]]
+    kept = [int(np.argmin(abs(result.t - t))) for t in meta["t"]]
+    reach = max(np.max(np.hypot(xs[k] - xs[k].mean(), ys[k] - ys[k].mean())) for k in kept)
+    half = reach + np.hypot(xs[0, 1] - xs[0, 0], ys[0, 1] - ys[0, 0])
+    k = kept[len(kept) // 2]
+    v = json.loads(assert_no_errors(browser(page, "t=%r&paused=1" % float(result.t[k])))["view"])
+    assert v["follow"] is True and v["front"] == 20
+    assert (v["cx"], v["cy"]) == pytest.approx((xs[k].mean(), ys[k].mean()), abs=1e-6)
+    # (the page holds the frames in float32: its reach differs in the 8th digit)
+    assert v["scale"] == pytest.approx((min(v["width"], v["height"]) - 2 * MARGIN_PX) / (2 * half), rel=1e-6)
+    spacing = np.median(np.hypot(np.diff(xs[k]), np.diff(ys[k])))  # drawn neighbours, world units
+    whole = json.loads(assert_no_errors(browser(page, "t=%r&paused=1&follow=0" % float(result.t[k])))["view"])
+    assert whole["follow"] is False
+    assert spacing * v["scale"] > 10 and spacing * whole["scale"] < 0.2 * spacing * v["scale"], (v, whole)

@@ -93,6 +93,12 @@ class Integrator {
 
  private:
   struct Arkode;  // keeps the SUNDIALS headers out of this one
+  struct ArkodeDeleter {  // defined where Arkode is (arkode_solver.cpp or arkode_missing.cpp)
+    void operator()(Arkode* arkode) const;
+  };
+  // The ARKODE methods (arkode_solver.cpp; without SUNDIALS, arkode_missing.cpp refuses them).
+  void start_arkode(double t0);
+  Status arkode_advance(double t);
   Status rk4_step(double h);
   Status fail(Status status, const std::string& why);
 
@@ -104,7 +110,7 @@ class Integrator {
   mutable Vector q_unit_;  // q() with unit quaternions (models with rigid bodies)
   long steps_ = 0, rhs_ = 0, trial_rhs_ = 0;
   std::string message_;
-  std::unique_ptr<Arkode> arkode_;
+  std::unique_ptr<Arkode, ArkodeDeleter> arkode_;
   BusyFlag busy_;
 };
 
